@@ -1,0 +1,24 @@
+"""shoulder_bench: a MuJoCo shoulder with FEM-derived muscles and a benchmark for learning muscle control.
+
+    import shoulder_bench
+    env = shoulder_bench.load("abduction_4m", split="test", seed=0)      # dm_control
+    env = gymnasium.make("ShoulderBench/abduction_4m-v0")                # gymnasium
+"""
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # headless by default; dm_control would try glfw first
+from shoulder_bench.model import MODEL_PATH, SCENE_PATH
+from shoulder_bench.tasks import list_tasks, load
+from shoulder_bench.tasks.gym_env import register_all as _register_gym
+
+__version__ = "0.1.0"
+__all__ = ["MODEL_PATH", "SCENE_PATH", "list_tasks", "load", "make_vec"]
+
+_register_gym()
+
+
+def make_vec(name: str, num_envs: int, device: str = "cpu", seed=None, **options):
+    """N copies of a task in lockstep as an rsl-rl VecEnv (see shoulder_bench.vec_env)."""
+    from shoulder_bench.vec_env import VecEnv
+
+    return VecEnv(name, num_envs, device=device, seed=seed, **options)
