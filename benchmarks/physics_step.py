@@ -1,0 +1,78 @@
+"""Choose the physics step: accuracy against a fine reference and stability when a muscle is slammed on.
+
+Accuracy: track a fixed activation profile for 10 s; the profile is what an agent produces (a seeded random walk of
+at most 1 % per 0.1 s frame from the activations that hold the arm at 45 deg, held within a frame). Criterion
+(issue 4): the angle stays within 0.1 deg of the reference (RK4, 0.5 ms) over the whole 10 s.
+Stability: each muscle alone at full activation for 5 s from 0, 45 and 150 deg; the run must stay finite and within
+60 deg of the joint limits (the arm presses into the soft joint limit, it must not tunnel through it).
+
+    python benchmarks/physics_step.py [--muscle-model fem|hill] [--seeds 5]
+"""
+from __future__ import annotations
+
+import argparse
+
+import mujoco
+import numpy as np
+
+from shoulder_bench import statics
+from shoulder_bench.anatomy import JOINT_RANGE_DEG
+from shoulder_bench.model import _LAWS, JOINT, load_model
+
+FRAMES = 100
+CANDIDATES = [("RK4", 0.01), ("RK4", 0.025), ("RK4", 0.05), ("IMPLICITFAST", 0.002), ("IMPLICITFAST", 0.005),
+              ("IMPLICITFAST", 0.01)]
+
+
+def profile(law, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    a = statics.holding_activation(law, 45.0)[0]
+    out = []
+    for _ in range(FRAMES):
+        a = np.clip(a + rng.uniform(-0.01, 0.01, size=a.shape), 0.0, 1.0)
+        out.append(a.copy())
+    return np.array(out)
+
+
+def simulate(m, acts: np.ndarray, integrator: str, dt: float, start_deg: float = 45.0) -> np.ndarray:
+    """Angle (deg) at the end of each 0.1 s frame."""
+    m.opt.integrator = getattr(mujoco.mjtIntegrator, f"mjINT_{integrator}")
+    m.opt.timestep = dt
+    d = mujoco.MjData(m)
+    d.qpos[m.joint(JOINT).qposadr[0]] = np.radians(start_deg)
+    out = []
+    for a in acts:
+        d.ctrl[:] = a
+        mujoco.mj_step(m, d, nstep=int(round(0.1 / dt)))
+        out.append(np.degrees(d.qpos[0]))
+    return np.array(out)
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--muscle-model", default=None, help="fem or hill (default: the model's default)")
+    p.add_argument("--seeds", type=int, default=5)
+    args = p.parse_args()
+    m = load_model(**({"muscle_model": args.muscle_model} if args.muscle_model else {}))
+    law = _LAWS[int(m.actuator_user[0, 0])]
+    profiles = [profile(law, s) for s in range(args.seeds)]
+    refs = [simulate(m, a, "RK4", 0.0005) for a in profiles]
+    lo, hi = JOINT_RANGE_DEG
+    print(f"{'integrator':>13} {'step ms':>8} {'max error deg':>14} {'slam range deg':>18}  verdict")
+    for integrator, dt in CANDIDATES:
+        err = max(float(np.max(np.abs(simulate(m, a, integrator, dt) - r))) for a, r in zip(profiles, refs))
+        angles = []
+        for k in range(m.nu):
+            slam = np.zeros((50, m.nu))
+            slam[:, k] = 1.0
+            for start in (0.0, 45.0, 150.0):
+                angles.append(simulate(m, slam, integrator, dt, start))
+        angles = np.concatenate(angles)
+        stable = bool(np.all(np.isfinite(angles)) and angles.min() > lo - 60 and angles.max() < hi + 60)
+        ok = err <= 0.1 and stable
+        print(f"{integrator:>13} {dt * 1000:8.1f} {err:14.4f} {f'[{angles.min():.0f}, {angles.max():.0f}]':>18}  "
+              f"{'ok' if ok else ('unstable' if not stable else 'inaccurate')}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,178 @@
+"""Loading the shoulder model and the process-global muscle callback.
+
+MuJoCo's `mjcb_act_gain` / `mjcb_act_bias` are process-global. Two facts shape this module:
+- While a Python callback is installed, *compiling* any model with `user` actuators fails ("Python exception raised":
+  the bindings cannot wrap the half-built model). `compile_model` therefore suspends the callbacks while compiling.
+- Several models (and copies of them) may live in one process. Each model carries its force law's id in
+  `actuator_user[:, 0]` (column 1 is the muscle's column in that law), so the one installed callback finds the law of
+  whatever model it is called for; an unknown id gives zero force rather than an exception inside MuJoCo.
+
+Per evaluation MuJoCo calls gain then bias for actuator 0, 1, ... in order; the gain call of the first muscle
+evaluates the law for all muscles at once (one compiled kernel call) and the other calls read that result. The
+callbacks run 16 times per actuator and frame (4 RK4 stages x 4 physics steps), so they keep per-model and per-data
+state keyed by `id()` (checked against a weak reference) instead of slower attribute look-ups.
+"""
+from __future__ import annotations
+
+import contextlib
+import itertools
+import weakref
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+MODELS_DIR = Path(__file__).resolve().parent / "models"
+if not MODELS_DIR.is_dir():  # source checkout: models/ sits beside the package
+    MODELS_DIR = Path(__file__).resolve().parents[1] / "models"
+MODEL_PATH = MODELS_DIR / "shoulder.xml"
+SCENE_PATH = MODELS_DIR / "scene.xml"
+JOINT = "abduction"
+DEFAULT_MUSCLE_MODEL = "hill"  # becomes "fem" once the FEM tables ship
+
+_LAWS: dict[int, object] = {}  # law id -> ForceLaw
+_law_ids = itertools.count(1)
+_models: dict[int, _ModelEntry] = {}  # id(MjModel) -> what the callback needs for that model
+_datas: dict[int, _DataEntry] = {}  # id(MjData) -> views and the forces of the current evaluation
+
+
+@contextlib.contextmanager
+def callbacks_suspended():
+    """Temporarily remove the actuator callbacks (needed to compile models with `user` actuators)."""
+    saved = (mujoco.get_mjcb_act_gain(), mujoco.get_mjcb_act_bias())
+    mujoco.set_mjcb_act_gain(None)
+    mujoco.set_mjcb_act_bias(None)
+    try:
+        yield
+    finally:
+        mujoco.set_mjcb_act_gain(saved[0])
+        mujoco.set_mjcb_act_bias(saved[1])
+
+
+def compile_model(path: Path | str = MODEL_PATH) -> mujoco.MjModel:
+    """Compile an MJCF file with the muscle callbacks suspended."""
+    with callbacks_suspended():
+        return mujoco.MjModel.from_xml_path(str(path))
+
+
+class _ModelEntry:
+    """Per model: its law, the law column of each actuator (-1: not simulated), actuator order, joint addresses."""
+
+    __slots__ = ("ref", "law", "cols", "order", "first", "qadr", "vadr")
+
+    def __init__(self, m: mujoco.MjModel, law):
+        self.ref = weakref.ref(m)
+        self.law = law
+        self.cols = [int(c) for c in np.asarray(m.actuator_user)[:, 1]]
+        self.order = np.array([self.cols.index(c) for c in range(len(law.muscles))])
+        self.first = int(self.order[0])
+        jnt = m.joint(JOINT).id
+        self.qadr, self.vadr = int(m.jnt_qposadr[jnt]), int(m.jnt_dofadr[jnt])
+
+
+class _DataEntry:
+    __slots__ = ("ref", "qpos", "qvel", "ctrl", "gain", "bias")
+
+    def __init__(self, d: mujoco.MjData, n: int):
+        self.ref = weakref.ref(d)
+        self.qpos, self.qvel, self.ctrl = d.qpos, d.qvel, d.ctrl  # views stay valid while d lives
+        self.gain, self.bias = np.zeros(n), np.zeros(n)
+
+
+def _model_entry(m: mujoco.MjModel) -> _ModelEntry | None:
+    e = _models.get(id(m))
+    if e is not None and e.ref() is m:
+        return e
+    user = np.asarray(m.actuator_user)
+    law = _LAWS.get(int(user[0, 0])) if m.nu and user.size else None
+    if law is None:
+        return None
+    e = _models[id(m)] = _ModelEntry(m, law)
+    return e
+
+
+def _data_entry(d: mujoco.MjData, n: int) -> _DataEntry:
+    e = _datas.get(id(d))
+    if e is None or e.ref() is not d:
+        e = _datas[id(d)] = _DataEntry(d, n)
+    return e
+
+
+def _gain(m, d, i):
+    e = _model_entry(m)
+    if e is None or e.cols[i] < 0:
+        return 0.0
+    s = _data_entry(d, len(e.cols))
+    if i == e.first:  # MuJoCo visits actuators in order: evaluate all muscles once, at the first one
+        gb = e.law.gain_bias_one(s.qpos[e.qadr], s.qvel[e.vadr], s.ctrl[e.order])
+        np.negative(gb[0], out=s.gain)  # negative: muscles pull, shortening their tendon
+        np.negative(gb[1], out=s.bias)
+    return float(s.gain[e.cols[i]])
+
+
+def _bias(m, d, i):
+    e = _model_entry(m)
+    if e is None or e.cols[i] < 0:
+        return 0.0
+    return float(_data_entry(d, len(e.cols)).bias[e.cols[i]])
+
+
+def install_callbacks() -> None:
+    """Install the muscle callbacks (idempotent)."""
+    mujoco.set_mjcb_act_gain(_gain)
+    mujoco.set_mjcb_act_bias(_bias)
+
+
+def attach_law(m: mujoco.MjModel, law) -> None:
+    """Make the installed callback evaluate `law` for model `m` (and for later copies of it)."""
+    names = muscle_names(m)
+    unknown = [x for x in law.muscles if x not in names]
+    if unknown:
+        raise ValueError(f"the model has no actuator(s) {unknown}; it has {names}")
+    law_id = next(_law_ids)
+    _LAWS[law_id] = law
+    m.actuator_user[:, 0] = law_id
+    m.actuator_user[:, 1] = [law.muscles.index(x) if x in law.muscles else -1 for x in names]
+    _models.pop(id(m), None)
+
+
+def load_model(muscle_model: str = DEFAULT_MUSCLE_MODEL, muscles=None, path: Path | str = MODEL_PATH) -> mujoco.MjModel:
+    """Compile the shoulder, attach the tabled force law and install the callbacks.
+
+    muscle_model: "fem" (tables from the thin-shell FEM) or "hill"; muscles: the simulated muscles (default all
+    four); the others exert no force, as if absent.
+    """
+    from shoulder_bench.muscle import ForceLaw
+
+    m = compile_model(path)
+    attach_law(m, ForceLaw.load(muscle_model, muscles=tuple(muscles or muscle_names(m))))
+    install_callbacks()
+    return m
+
+
+def muscle_names(m: mujoco.MjModel) -> tuple[str, ...]:
+    return tuple(m.actuator(i).name for i in range(m.nu))
+
+
+def moment_arms(angle_deg: np.ndarray, path: Path | str = MODEL_PATH) -> dict[str, np.ndarray]:
+    """MJCF tendon moment arms (m, positive = elevates the arm) at the given abduction angles."""
+    m = compile_model(path)
+    d = mujoco.MjData(m)
+    jnt = m.joint(JOINT)
+    out = np.zeros((len(np.atleast_1d(angle_deg)), m.ntendon))
+    for k, a in enumerate(np.radians(np.atleast_1d(angle_deg))):
+        d.qpos[jnt.qposadr[0]] = a
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_tendon(m, d)
+        out[k] = -tendon_jacobian(m, d)[:, jnt.dofadr[0]]
+    return {m.tendon(t).name: out[:, t] for t in range(m.ntendon)}
+
+
+def tendon_jacobian(m: mujoco.MjModel, d: mujoco.MjData) -> np.ndarray:
+    """Dense (ntendon, nv) tendon Jacobian dL/dq, whether MuJoCo stores it sparse or dense."""
+    if not mujoco.mj_isSparse(m):
+        return np.asarray(d.ten_J).reshape(m.ntendon, m.nv).copy()
+    dense = np.zeros((m.ntendon, m.nv))
+    mujoco.mju_sparse2dense(dense, d.ten_J, d.ten_J_rownnz, d.ten_J_rowadr, d.ten_J_colind)
+    return dense

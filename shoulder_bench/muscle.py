@@ -1,0 +1,256 @@
+"""The muscle force law: tabled isometric force F(angle, activation), a force-velocity factor, passive force.
+
+One implementation, written for arrays: the MuJoCo callback calls it with a batch of one, the batched simulator with
+the whole batch. Tables live in `models/muscles/<muscle>_<model>.npz` (model "fem": from the thin-shell FEM, the
+default; "hill": a Hill-type law fitted to the reference F0 and the MJCF moment arms, see `shoulder_bench.hill`).
+
+Table format (all arrays float64):
+  angle_deg (K,)      uniform grid of abduction angles
+  activation (J,)     ascending, activation[0] == 0, activation[-1] == 1
+  force_N (K, J)      tendon force (pulling, N) at (angle, activation); column 0 is the passive force
+  torque_Nm (K, J)    the joint torque the source model gives (positive elevates)
+  moment_arm_m (K,)   the MJCF tendon moment arm the table was made for (positive elevates)
+  meta                0-d string: JSON with the source ("fem"/"hill"), muscle, constants, grid, code version
+
+Interpolation is bilinear (linear in angle on the uniform grid, linear in activation between levels); angles
+outside the grid take the edge values. The force-velocity factor multiplies the active part only; it is MuJoCo's
+piecewise-quadratic muscle curve (mju_muscleGainVelocity) with fvmax = 1.2 on the tendon velocity normalised by
+vmax = 10 optimal fibre lengths per second (shortening lowers force to zero at vmax, lengthening raises it to 1.2).
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numba
+import numpy as np
+
+from shoulder_bench import anatomy
+
+FV_MAX = 1.2
+VMAX_LOPT_PER_S = 10.0
+MUSCLE_MODELS = ("fem", "hill")
+REQUIRED_KEYS = ("angle_deg", "activation", "force_N", "torque_Nm", "moment_arm_m", "meta")
+
+
+def table_path(muscle: str, muscle_model: str, folder: Path | None = None) -> Path:
+    from shoulder_bench.model import MODELS_DIR
+
+    return Path(folder or MODELS_DIR / "muscles") / f"{muscle}_{muscle_model}.npz"
+
+
+REBUILD = {"fem": "shoulder-bench fem build", "hill": "python -m shoulder_bench.hill"}
+
+
+@dataclass(frozen=True)
+class MuscleTable:
+    muscle: str
+    angle_deg: np.ndarray
+    activation: np.ndarray
+    force_N: np.ndarray
+    torque_Nm: np.ndarray
+    moment_arm_m: np.ndarray
+    meta: dict
+
+    @classmethod
+    def load(cls, path: Path) -> MuscleTable:
+        """Read and check a table; errors name the file and the command that rebuilds it."""
+        path = Path(path)
+        model = path.stem.rsplit("_", 1)[-1]
+        fix = f"rebuild it with `{REBUILD.get(model, 'shoulder-bench fem build')}`"
+        if not path.exists():
+            raise FileNotFoundError(f"muscle table {path} is missing; {fix}")
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                missing = [k for k in REQUIRED_KEYS if k not in z.files]
+                if missing:
+                    raise ValueError(f"lacks {missing}")
+                arrays = {k: np.asarray(z[k], dtype=float) for k in REQUIRED_KEYS if k != "meta"}
+                meta = json.loads(str(z["meta"]))
+        except Exception as exc:  # zip, pickle, JSON or key errors all mean the same thing to a user
+            raise ValueError(f"muscle table {path} is unreadable or corrupt ({exc}); {fix}") from exc
+        table = cls(muscle=meta.get("muscle", path.stem.rsplit("_", 1)[0]), meta=meta, **arrays)
+        table._check(path, fix)
+        return table
+
+    def _check(self, path: Path, fix: str) -> None:
+        k, j = len(self.angle_deg), len(self.activation)
+        problems = []
+        if self.force_N.shape != (k, j) or self.torque_Nm.shape != (k, j) or self.moment_arm_m.shape != (k,):
+            problems.append("array shapes disagree")
+        elif not all(np.all(np.isfinite(a)) for a in (self.force_N, self.torque_Nm, self.moment_arm_m)):
+            problems.append("non-finite values")
+        if k < 2 or not np.allclose(np.diff(self.angle_deg), self.angle_deg[1] - self.angle_deg[0]):
+            problems.append("angle grid is not uniform")
+        if j < 2 or self.activation[0] != 0 or self.activation[-1] != 1 or np.any(np.diff(self.activation) <= 0):
+            problems.append("activation grid must rise from 0 to 1")
+        if problems:
+            raise ValueError(f"muscle table {path}: {'; '.join(problems)}; {fix}")
+
+    def check_against_model(self, moment_arm_m: np.ndarray, path: Path) -> None:
+        """The table must have been made for this MJCF: same tendon moment arms at its grid angles."""
+        err = np.max(np.abs(moment_arm_m - self.moment_arm_m))
+        if err > 1e-6:
+            model = self.meta.get("model", "fem")
+            raise ValueError(
+                f"muscle table {path} does not match the model {MODEL_NAME}: its tendon moment arms differ by up "
+                f"to {err * 1000:.3f} mm (the MJCF changed since the table was built); rebuild it with "
+                f"`{REBUILD.get(model, REBUILD['fem'])}`")
+
+
+MODEL_NAME = "models/shoulder.xml"
+
+
+class ForceLaw:
+    """Forces of n muscles, vectorised over a batch of states.
+
+    The tables are stacked into one array F[angle, activation level, muscle] on the union of the muscles' activation
+    levels (exact: each table is piecewise linear in activation and the union contains its knots), so one evaluation
+    is a few array operations whatever the number of muscles.
+    """
+
+    def __init__(self, tables: list[MuscleTable]):
+        self.tables = tables
+        self.muscles = tuple(t.muscle for t in tables)
+        grid = tables[0].angle_deg
+        for t in tables:
+            if not np.array_equal(t.angle_deg, grid):
+                raise ValueError("all muscle tables of a law must share one angle grid")
+        levels = np.unique(np.concatenate([t.activation for t in tables]))
+        force = np.stack([np.stack([np.interp(levels, t.activation, row) for row in t.force_N]) for t in tables],
+                         axis=-1)  # (K, J, n)
+        self.levels = levels
+        self._n = len(tables)
+        self._k, self._j = force.shape[0], force.shape[1]
+        self._flat = np.ascontiguousarray(force.ravel())
+        self._a0 = np.radians(grid[0])
+        self._inv_da = 1.0 / np.radians(grid[1] - grid[0])
+        self._arm = np.ascontiguousarray(np.stack([t.moment_arm_m for t in tables], axis=1))  # (K, n)
+        self._one_state = np.zeros(2)
+        self._one_act = np.zeros((1, self._n))
+        self._one_out = np.zeros((4, 1, self._n))
+        self._one_gb = np.zeros((2, self._n))
+        self._neg_inv_vscale = -1.0 / np.array([VMAX_LOPT_PER_S * anatomy.OPTIMAL_FIBRE_LENGTH[m]
+                                                for m in self.muscles])
+
+    @classmethod
+    def load(cls, muscle_model: str = "fem", muscles=anatomy.MUSCLES, folder: Path | None = None) -> ForceLaw:
+        if muscle_model not in MUSCLE_MODELS:
+            raise ValueError(f"unknown muscle_model {muscle_model!r}; choose one of {MUSCLE_MODELS}")
+        unknown = [m for m in muscles if m not in anatomy.MUSCLES]
+        if unknown:
+            raise ValueError(f"unknown muscle(s) {unknown}; choose from {anatomy.MUSCLES}")
+        tables = [MuscleTable.load(table_path(m, muscle_model, folder)) for m in muscles]
+        arms = _model_moment_arms(tables[0].angle_deg)
+        for m, t in zip(muscles, tables):
+            t.check_against_model(arms[m], table_path(m, muscle_model, folder))
+        return cls(tables)
+
+    def _evaluate(self, angle, velocity, activation):
+        """(active, per-unit active, passive, force-velocity factor), each (B, n), from one kernel pass."""
+        angle = np.ascontiguousarray(angle, dtype=np.float64)
+        velocity = np.ascontiguousarray(velocity, dtype=np.float64)
+        activation = np.ascontiguousarray(activation, dtype=np.float64)
+        out = np.empty((4,) + activation.shape)
+        _kernel(self._flat, self._arm, self.levels, self._a0, self._inv_da, self._neg_inv_vscale,
+                angle, velocity, activation, out)
+        return out[0], out[1], out[2], out[3]
+
+    def gain_bias_one(self, angle: float, velocity: float, activation: np.ndarray) -> np.ndarray:
+        """The callback's entry: one state, returns the (2, n) array [gain; bias] (a reused buffer)."""
+        self._one_state[0] = angle
+        self._one_state[1] = velocity
+        self._one_act[0] = activation
+        _kernel(self._flat, self._arm, self.levels, self._a0, self._inv_da, self._neg_inv_vscale,
+                self._one_state[:1], self._one_state[1:], self._one_act, self._one_out)
+        out = self._one_out
+        np.multiply(out[1, 0], out[3, 0], out=self._one_gb[0])
+        self._one_gb[1] = out[2, 0]
+        return self._one_gb
+
+    def moment_arm(self, angle: np.ndarray) -> np.ndarray:
+        """(B, n) tendon moment arms (m) interpolated from the tables at angles (rad)."""
+        x = np.clip((np.asarray(angle, dtype=float) - self._a0) * self._inv_da, 0.0, self._k - 1.000001)
+        i = x.astype(np.int64)
+        w = (x - i)[:, None]
+        return self._arm[i] + (self._arm[i + 1] - self._arm[i]) * w
+
+    def isometric(self, angle: np.ndarray, activation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(active, passive) isometric tendon forces, each (B, n), at angles (B,) rad and activations (B, n)."""
+        active, _, passive, _ = self._evaluate(angle, np.zeros(len(angle)), activation)
+        return active, passive
+
+    def force_velocity(self, angle: np.ndarray, velocity: np.ndarray) -> np.ndarray:
+        """(B, n) force-velocity factor from the joint angular velocity (rad/s) through the moment arms."""
+        return self._evaluate(angle, velocity, np.zeros((len(angle), self._n)))[3]
+
+    def force(self, angle: np.ndarray, velocity: np.ndarray, activation: np.ndarray) -> np.ndarray:
+        """(B, n) tendon forces (N, pulling) for angles (B,) rad, velocities (B,) rad/s, activations (B, n)."""
+        active, _, passive, fv = self._evaluate(angle, velocity, activation)
+        return active * fv + passive
+
+    def gain_bias(self, angle: np.ndarray, velocity: np.ndarray, activation: np.ndarray):
+        """Split `force` as MuJoCo's `gain * activation + bias`: gain = active force per unit activation."""
+        _, per_unit, passive, fv = self._evaluate(angle, velocity, activation)
+        return per_unit * fv, passive
+
+    def torque(self, angle: np.ndarray, velocity: np.ndarray, activation: np.ndarray) -> np.ndarray:
+        """(B, n) joint torques (N m, positive elevates), using the tabled moment arms."""
+        return self.force(angle, velocity, activation) * self.moment_arm(angle)
+
+
+@numba.njit(cache=True, nogil=True)
+def _kernel(flat, arm, levels, a0, inv_da, neg_inv_vscale, angle, velocity, activation, out):
+    """The law for a batch: out[0..3] = active force, active force per unit activation, passive force, FV factor.
+
+    Compiled (numba) because it runs at every physics step, often for one state, where numpy's per-call overhead
+    (~1 us per operation) would cost more than the physics; one kernel serves the callback and the batch alike.
+    """
+    nb, n = activation.shape
+    nj = levels.shape[0]
+    kmax = arm.shape[0] - 1.000001
+    stride = nj * n
+    for b in range(nb):
+        x = min(max((angle[b] - a0) * inv_da, 0.0), kmax)
+        i = int(x)
+        w = x - i
+        for c in range(n):
+            a = min(max(activation[b, c], 0.0), 1.0)
+            j = 0
+            while j < nj - 2 and levels[j + 1] <= a:
+                j += 1
+            u = (a - levels[j]) / (levels[j + 1] - levels[j])
+            p0 = flat[i * stride + c]
+            passive = p0 + (flat[(i + 1) * stride + c] - p0) * w
+            k = i * stride + j * n + c
+            lo = flat[k] + (flat[k + stride] - flat[k]) * w
+            hi = flat[k + n] + (flat[k + n + stride] - flat[k + n]) * w
+            active = lo + (hi - lo) * u - passive
+            # On the first level cell the law is linear in activation from the passive force: there the force per
+            # unit activation is the cell's slope (also at zero activation); elsewhere active force / activation.
+            per_unit = (hi - passive) / levels[1] if j == 0 else active / a
+            r = arm[i, c] + (arm[i + 1, c] - arm[i, c]) * w
+            v = r * velocity[b] * neg_inv_vscale[c]  # tendon lengthening rate in units of vmax
+            if v <= 0.0:
+                s = max(v + 1.0, 0.0)
+                fv = s * s
+            else:
+                s = max(FV_MAX - 1.0 - v, 0.0)
+                fv = FV_MAX - s * s / (FV_MAX - 1.0)
+            out[0, b, c] = active
+            out[1, b, c] = per_unit
+            out[2, b, c] = passive
+            out[3, b, c] = fv
+
+
+_ARM_CACHE: dict[tuple, dict[str, np.ndarray]] = {}
+
+
+def _model_moment_arms(angle_deg: np.ndarray) -> dict[str, np.ndarray]:
+    from shoulder_bench.model import moment_arms
+
+    key = tuple(np.round(angle_deg, 9))
+    if key not in _ARM_CACHE:
+        _ARM_CACHE[key] = moment_arms(angle_deg)
+    return _ARM_CACHE[key]

@@ -1,0 +1,54 @@
+"""Static equilibrium: the activations that hold the arm still at an angle (minimum sum of squared activations).
+
+Used to start episodes at rest on the target and by the reference controller's static optimisation.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from shoulder_bench import anatomy
+
+GRAVITY = 9.81
+
+
+def gravity_torque(angle_rad: np.ndarray) -> np.ndarray:
+    """Joint torque of gravity on the humerus (N m, positive elevates): it pulls the arm down."""
+    com = np.linalg.norm(anatomy.HUMERUS_COM)
+    return -anatomy.HUMERUS_MASS * GRAVITY * com * np.sin(angle_rad)
+
+
+def distribute(law, angle_rad: np.ndarray, torque: np.ndarray, upper=1.0, lower=0.0, iters: int = 30) -> np.ndarray:
+    """Activations (B, n) in [lower, upper] that produce `torque` (B,) at rest and minimise sum a^2.
+
+    The isometric torque is affine in each activation on its table cell, tau = p + s . a; the minimum-norm solution is
+    a = clip(lambda * s), with the scalar lambda found by bisection (the torque rises monotonically in lambda).
+    Where the target torque is out of reach the closest bound is returned.
+    """
+    angle_rad = np.atleast_1d(angle_rad).astype(float)
+    b, n = len(angle_rad), len(law.muscles)
+    zero = np.zeros(b)
+    upper = np.broadcast_to(upper, (b, n)).astype(float)
+    lower = np.broadcast_to(lower, (b, n)).astype(float)
+    arm = law.moment_arm(angle_rad)
+    slope = law.torque(angle_rad, zero, np.ones((b, n))) - law.torque(angle_rad, zero, np.zeros((b, n)))
+
+    def tau(lam):
+        a = np.clip(lam[:, None] * slope, lower, upper)
+        return a, (law.force(angle_rad, zero, a) * arm).sum(axis=1)
+
+    lo, hi = np.full(b, -1.0), np.full(b, 1.0)
+    scale = np.maximum(np.abs(slope).max(axis=1), 1e-9)
+    lo, hi = lo / scale ** 2 * 1e3, hi / scale ** 2 * 1e3  # wide enough that every activation saturates
+    for _ in range(iters + 30):
+        mid = 0.5 * (lo + hi)
+        _, t = tau(mid)
+        low = t < torque
+        lo = np.where(low, mid, lo)
+        hi = np.where(low, hi, mid)
+    return tau(0.5 * (lo + hi))[0]
+
+
+def holding_activation(law, angle_deg) -> np.ndarray:
+    """Activations (B, n) that hold the arm at rest at `angle_deg` against gravity."""
+    a = np.radians(np.atleast_1d(angle_deg).astype(float))
+    return distribute(law, a, -gravity_torque(a))

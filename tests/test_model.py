@@ -1,0 +1,111 @@
+"""The MJCF, the callback and the force law it applies."""
+import copy
+
+import mujoco
+import numpy as np
+import pytest
+
+import shoulder_bench
+from shoulder_bench import anatomy, mjcf
+from shoulder_bench.model import (
+    _LAWS,
+    MODEL_PATH,
+    attach_law,
+    compile_model,
+    install_callbacks,
+    load_model,
+    moment_arms,
+)
+from shoulder_bench.muscle import ForceLaw
+
+
+def test_shipped_mjcf_is_generated_from_anatomy():
+    assert MODEL_PATH.read_text() == mjcf.model_xml(), "run `python -m shoulder_bench.mjcf`"
+
+
+def test_model_structure():
+    m = compile_model()
+    assert m.njnt == 1 and m.joint(0).name == "abduction"
+    assert np.allclose(np.degrees(m.jnt_range[0]), anatomy.JOINT_RANGE_DEG)
+    assert m.jnt_range[0, 0] <= 0 and np.degrees(m.jnt_range[0, 1]) >= 150
+    hum = m.body("humerus")
+    assert hum.mass[0] == pytest.approx(2.0) and np.allclose(hum.inertia, anatomy.HUMERUS_INERTIA)
+    assert [m.actuator(i).name for i in range(m.nu)] == list(anatomy.MUSCLES)
+    assert np.all(m.actuator_gaintype == mujoco.mjtGain.mjGAIN_USER)
+    assert np.all(m.actuator_biastype == mujoco.mjtBias.mjBIAS_USER)
+    for name in ("thorax", "clavicle", "scapula", "humerus"):
+        assert m.geom(name).type == mujoco.mjtGeom.mjGEOM_MESH
+
+
+def test_moment_arm_signs_follow_anatomy():
+    r = moment_arms(np.array([10.0, 45.0, 90.0]))
+    assert np.all(r["dmi"] > 0.02) and np.all(r["ssp"][:2] > 0.01)  # elevators
+    assert np.all(r["ld"][1:] < -0.02)  # depressor above 30 deg
+    assert np.all(np.abs(r["isp"]) < 0.01)  # small
+
+
+def test_ssp_and_dmi_paths_do_not_cut_through_the_humeral_head():
+    """Sample each path segment of the wrapped muscles; no point may lie inside the head sphere."""
+    m = compile_model()
+    d = mujoco.MjData(m)
+    for angle in np.radians([-10, 0, 30, 60, 90, 120, 150]):
+        d.qpos[0] = angle
+        mujoco.mj_forward(m, d)
+        for name in ("ssp", "dmi", "isp"):
+            t = m.tendon(name).id
+            adr, num = d.ten_wrapadr[t], d.ten_wrapnum[t]
+            pts = d.wrap_xpos.reshape(-1, 3)[adr:adr + num]
+            obj = d.wrap_obj.ravel()[adr:adr + num]
+            assert num >= 3
+            for k, (a, b) in enumerate(zip(pts[:-1], pts[1:])):
+                if obj[k] >= 0 and obj[k + 1] >= 0:
+                    continue  # two tangent points on the head: the path is the arc between them, on the surface
+                s = np.linspace(0, 1, 50)[:, None]
+                seg = a + s * (b - a)
+                assert np.linalg.norm(seg, axis=1).min() >= anatomy.HUMERAL_HEAD_RADIUS - 1e-4, (name, angle)
+
+
+def test_callback_applies_the_tabled_force():
+    m = load_model("hill")
+    law = _LAWS[int(m.actuator_user[0, 0])]
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        d.qpos[0] = np.radians(rng.uniform(-10, 160))
+        d.qvel[0] = rng.uniform(-3, 3)
+        d.ctrl[:] = rng.uniform(0, 1, size=4)
+        mujoco.mj_forward(m, d)
+        expected = law.force(d.qpos[:1].copy(), d.qvel[:1].copy(), d.ctrl[None, :].copy())[0]
+        assert np.allclose(-d.actuator_force, expected, rtol=1e-12, atol=1e-9)
+
+
+def test_compiling_with_the_callback_installed_and_several_models():
+    """compile_model works while callbacks are installed; two models keep their own laws; copies keep theirs."""
+    m_all = load_model("hill")
+    m_ssp = compile_model()
+    attach_law(m_ssp, ForceLaw.load("hill", muscles=("ssp",)))
+    install_callbacks()
+    m_copy = copy.copy(m_all)
+    forces = []
+    for m in (m_all, m_ssp, m_copy):
+        d = mujoco.MjData(m)
+        d.qpos[0] = 0.7
+        d.ctrl[:] = 0.3
+        mujoco.mj_forward(m, d)
+        forces.append(d.actuator_force.copy())
+    assert np.all(forces[0] < 0)
+    assert forces[1][0] == pytest.approx(forces[0][0]) and np.all(forces[1][1:] == 0)  # other muscles absent
+    assert np.array_equal(forces[2], forces[0])
+
+
+def test_unknown_model_gets_zero_force_not_an_exception():
+    m = compile_model()  # no law attached: actuator_user law id 0
+    install_callbacks()
+    d = mujoco.MjData(m)
+    d.ctrl[:] = 1.0
+    mujoco.mj_forward(m, d)
+    assert np.all(d.actuator_force == 0)
+
+
+def test_model_path_is_public():
+    assert shoulder_bench.MODEL_PATH.exists() and shoulder_bench.MODEL_PATH.name == "shoulder.xml"

@@ -1,0 +1,91 @@
+"""The force law and its tables: interpolation, the gain/bias split, force-velocity, and errors for bad tables."""
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from shoulder_bench import hill
+from shoulder_bench.muscle import FV_MAX, ForceLaw, MuscleTable, table_path
+
+
+@pytest.fixture(scope="module")
+def law():
+    return ForceLaw.load("hill")
+
+
+def test_interpolation_reproduces_grid_points_and_is_linear_between(law):
+    t = law.tables[2]  # dmi
+    k = 20
+    angle = np.radians(np.full(3, t.angle_deg[k]))
+    act = np.zeros((3, 4))
+    act[:, 2] = t.activation
+    f = law.force(angle, np.zeros(3), act)[:, 2]
+    assert np.allclose(f, t.force_N[k], rtol=1e-12)
+    mid = np.radians([(t.angle_deg[k] + t.angle_deg[k + 1]) / 2])
+    a = np.zeros((1, 4))
+    a[0, 2] = 1.0
+    expected = (t.force_N[k, -1] + t.force_N[k + 1, -1]) / 2
+    assert law.force(mid, np.zeros(1), a)[0, 2] == pytest.approx(expected, rel=1e-12)
+
+
+def test_gain_times_activation_plus_bias_is_the_force(law):
+    rng = np.random.default_rng(1)
+    angle, vel = rng.uniform(-0.2, 2.8, 500), rng.normal(0, 3, 500)
+    act = rng.uniform(0, 1, (500, 4))
+    act[:50] = 0.0
+    gain, bias = law.gain_bias(angle, vel, act)
+    assert np.allclose(gain * act + bias, law.force(angle, vel, act), rtol=1e-12, atol=1e-9)
+    assert np.all(gain[:50] > 0)  # defined (the first cell's slope) at zero activation
+
+
+def test_force_velocity_factor(law):
+    angle = np.radians(np.full(3, 60.0))
+    # elevating the arm shortens the deltoid (positive moment arm): force falls; lowering lengthens: force rises
+    fv = law.force_velocity(angle, np.array([0.0, 2.0, -2.0]))[:, 2]
+    assert fv[0] == pytest.approx(1.0)
+    assert fv[1] < 1.0 < fv[2] <= FV_MAX
+    very_fast = law.force_velocity(angle, np.array([1e3]))[:, 2]
+    assert very_fast[0] == 0.0
+
+
+def test_hill_tables_regenerate_identically(tmp_path):
+    hill.build_tables(folder=tmp_path)
+    for m in ("ssp", "isp", "dmi", "ld"):
+        a, b = MuscleTable.load(tmp_path / f"{m}_hill.npz"), MuscleTable.load(table_path(m, "hill"))
+        assert np.array_equal(a.force_N, b.force_N) and a.meta == b.meta
+
+
+def test_missing_table_names_file_and_command(tmp_path):
+    with pytest.raises(FileNotFoundError, match=r"ssp_hill\.npz.*python -m shoulder_bench\.hill"):
+        ForceLaw.load("hill", folder=tmp_path)
+
+
+def test_corrupt_table_names_file_and_command(tmp_path):
+    for m in ("ssp", "isp", "dmi", "ld"):
+        shutil.copy(table_path(m, "hill"), tmp_path)
+    (tmp_path / "dmi_hill.npz").write_bytes(b"not a zip file")
+    with pytest.raises(ValueError, match=r"dmi_hill\.npz.*corrupt.*rebuild"):
+        ForceLaw.load("hill", folder=tmp_path)
+
+
+def test_table_for_another_model_is_rejected(tmp_path):
+    for m in ("ssp", "isp", "dmi", "ld"):
+        shutil.copy(table_path(m, "hill"), tmp_path)
+    with np.load(table_path("isp", "hill")) as z:
+        data = dict(z)
+    data["moment_arm_m"] = data["moment_arm_m"] + 0.002  # as if built for other tendon paths
+    np.savez(tmp_path / "isp_hill.npz", **data)
+    with pytest.raises(ValueError, match=r"isp_hill\.npz does not match the model.*rebuild"):
+        ForceLaw.load("hill", folder=tmp_path)
+
+
+def test_unknown_muscle_model():
+    with pytest.raises(ValueError, match="fem"):
+        ForceLaw.load("spring")
+
+
+def test_table_metadata_names_its_source():
+    t = MuscleTable.load(table_path("ssp", "hill"))
+    assert t.meta["model"] == "hill" and "Hill" in t.meta["law"]
+    json.dumps(t.meta)
