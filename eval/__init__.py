@@ -1,0 +1,1 @@
+"""Evaluation: the fixed test set, metrics, leaderboard, figures and videos."""

@@ -1,0 +1,166 @@
+"""Target trajectories: the paper's random quintic segments, user CSV files and the fixed test set.
+
+The paper (section "Experiments"): 5 s segments of 5th-order polynomials with zero velocity and acceleration at both
+ends, stacked so the end of one is the start of the next; end points uniform in [30, 90] deg for training and
+[20, 100] deg for testing; 10 s training episodes, 20 s test trajectories, sampled at the 0.1 s frame rate.
+"""
+from __future__ import annotations
+
+import csv
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from shoulder_bench.anatomy import JOINT_RANGE_DEG
+
+FRAME_S = 0.1
+SEGMENT_S = 5.0
+SPLITS = {"train": {"duration_s": 10.0, "range_deg": (30.0, 90.0)},
+          "test": {"duration_s": 20.0, "range_deg": (20.0, 100.0)}}
+TEST_SET_SEED = 20201  # the fixed test set: 100 test trajectories drawn once with this seed
+TEST_SET_SIZE = 100
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Target angle and angular velocity at frames 0, 1, ..., K-1 (0.1 s apart), in degrees and deg/s."""
+
+    angle_deg: np.ndarray
+    velocity_deg_s: np.ndarray
+    name: str = ""
+
+    @property
+    def frames(self) -> int:
+        """Number of control steps an episode on this target takes (one fewer than samples)."""
+        return len(self.angle_deg) - 1
+
+
+def quintic(t: np.ndarray, start: float, end: float, duration: float) -> tuple[np.ndarray, np.ndarray]:
+    """Rest-to-rest 5th-order polynomial: position and velocity at times t in [0, duration]."""
+    s = np.clip(t / duration, 0.0, 1.0)
+    pos = start + (end - start) * (10 * s**3 - 15 * s**4 + 6 * s**5)
+    vel = (end - start) * (30 * s**2 - 60 * s**3 + 30 * s**4) / duration
+    return pos, vel
+
+
+def random_trajectory(rng: np.random.Generator, split: str = "train") -> Trajectory:
+    """Stacked random quintic segments for `split` ("train" or "test"), drawn from `rng`."""
+    if split not in SPLITS:
+        raise ValueError(f"unknown split {split!r}; choose one of {sorted(SPLITS)}")
+    spec = SPLITS[split]
+    lo, hi = spec["range_deg"]
+    n_seg = int(round(spec["duration_s"] / SEGMENT_S))
+    points = rng.uniform(lo, hi, size=n_seg + 1)
+    per_seg = int(round(SEGMENT_S / FRAME_S))
+    t = np.arange(per_seg) * FRAME_S
+    pos = [quintic(t, points[k], points[k + 1], SEGMENT_S)[0] for k in range(n_seg)] + [[points[-1]]]
+    return from_array(np.concatenate(pos), name=split)
+
+
+def from_array(angle_deg, name: str = "array") -> Trajectory:
+    """A target given as degrees at the frame rate. Its velocity is always the central difference of the samples
+    (one definition for generated, CSV and array targets)."""
+    a = np.asarray(angle_deg, dtype=float).ravel()
+    _check_angles(a, name, rows=None)
+    if len(a) < 2:
+        raise ValueError(f"trajectory {name} has {len(a)} sample(s); give at least two frames (0.1 s apart)")
+    return Trajectory(a, np.gradient(a, FRAME_S), name=name)
+
+
+def _check_angles(a: np.ndarray, where: str, rows) -> None:
+    lo, hi = JOINT_RANGE_DEG
+    bad = np.flatnonzero(~np.isfinite(a) | (a < lo) | (a > hi))
+    if bad.size:
+        k = bad[0]
+        row = f" row {rows[k]}" if rows is not None else f" sample {k}"
+        raise ValueError(f"{where}:{row}: angle {a[k]!r} deg is not a finite number within the model's range "
+                         f"[{lo:g}, {hi:g}] deg; fix or drop that row")
+
+
+def load_csv(path: Path | str) -> list[Trajectory]:
+    """Read `time_s,angle_deg[,trajectory]` (any sampling rate) and resample each trajectory to 0.1 s frames."""
+    path = Path(path)
+    if not path.exists():
+        raise ValueError(f"trajectory file {path} does not exist")
+    with path.open(newline="") as f:
+        reader = csv.DictReader(f)
+        cols = reader.fieldnames or []
+        missing = [c for c in ("time_s", "angle_deg") if c not in cols]
+        if missing:
+            raise ValueError(f"{path}: missing column(s) {missing} (found {cols}); the header must be "
+                             f"`time_s,angle_deg` with an optional `trajectory` column")
+        groups: dict[str, tuple[list, list, list]] = {}
+        for row_no, row in enumerate(reader, start=2):
+            key = row.get("trajectory") or "0"
+            g = groups.setdefault(key, ([], [], []))
+            try:
+                g[0].append(float(row["time_s"]))
+                g[1].append(float(row["angle_deg"]))
+            except (TypeError, ValueError):
+                raise ValueError(f"{path}: row {row_no}: time_s={row.get('time_s')!r}, angle_deg="
+                                 f"{row.get('angle_deg')!r} are not numbers; fix that row") from None
+            g[2].append(row_no)
+    if not groups:
+        raise ValueError(f"{path}: no data rows below the header")
+    out = []
+    for key, (t, a, rows) in groups.items():
+        t, a = np.array(t), np.array(a)
+        where = f"{path}" + (f" (trajectory {key})" if len(groups) > 1 else "")
+        bad_t = np.flatnonzero(~np.isfinite(t))
+        if bad_t.size:
+            raise ValueError(f"{where}: row {rows[bad_t[0]]}: time_s is not finite; fix that row")
+        _check_angles(a, where, rows)
+        steps = np.flatnonzero(np.diff(t) <= 0)
+        if steps.size:
+            raise ValueError(f"{where}: row {rows[steps[0] + 1]}: time_s {t[steps[0] + 1]:g} does not increase "
+                             f"(previous row {t[steps[0]]:g}); sort the rows by time and remove duplicates")
+        frames = np.arange(0.0, t[-1] - t[0] + 1e-9, FRAME_S)
+        if len(frames) < 2:
+            raise ValueError(f"{where}: spans {t[-1] - t[0]:g} s; a trajectory needs at least 0.1 s (two frames)")
+        out.append(from_array(np.interp(frames + t[0], t, a), name=f"{path.name}:{key}"))
+    return out
+
+
+def write_csv(path: Path | str, trajectories: list[Trajectory]) -> None:
+    """Write trajectories (at the frame rate) in the CSV format `load_csv` reads; atomic."""
+    path = Path(path)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    with tmp.open("w", newline="") as f:
+        f.write("trajectory,time_s,angle_deg\n")
+        for k, tr in enumerate(trajectories):
+            for i, a in enumerate(tr.angle_deg):
+                f.write(f"{k},{i * FRAME_S:.1f},{a:.6f}\n")
+    tmp.replace(path)
+
+
+def test_set_path() -> Path:
+    from importlib.resources import files
+
+    return Path(str(files("shoulder_bench.eval") / "data" / "test_set.csv"))
+
+
+def make_test_set() -> list[Trajectory]:
+    """The fixed test set, generated from TEST_SET_SEED (what `eval/data/test_set.csv` stores)."""
+    rng = np.random.default_rng(TEST_SET_SEED)
+    return [random_trajectory(rng, "test") for _ in range(TEST_SET_SIZE)]
+
+
+def load_test_set() -> list[Trajectory]:
+    """The 100 stored test trajectories, after checking the file against its recorded SHA-256."""
+    path = test_set_path()
+    expected = path.with_suffix(".sha256").read_text().split()[0]
+    actual = hashlib.sha256(path.read_bytes()).hexdigest()
+    if actual != expected:
+        raise ValueError(f"{path} does not match its checksum ({actual} != {expected}); restore it from the repo "
+                         f"or regenerate it with `python -m shoulder_bench.trajectory`")
+    return [Trajectory(t.angle_deg, t.velocity_deg_s, name=f"test:{k}") for k, t in enumerate(load_csv(path))]
+
+
+if __name__ == "__main__":
+    p = test_set_path()
+    p.parent.mkdir(parents=True, exist_ok=True)
+    write_csv(p, make_test_set())
+    p.with_suffix(".sha256").write_text(hashlib.sha256(p.read_bytes()).hexdigest() + "  test_set.csv\n")
+    print(p)

@@ -1,0 +1,83 @@
+"""Target trajectories: the paper's generator, CSV files, the fixed test set."""
+import hashlib
+
+import numpy as np
+import pytest
+
+from shoulder_bench import trajectory as T
+
+
+@pytest.mark.parametrize("split,frames,lo,hi", [("train", 100, 30, 90), ("test", 200, 20, 100)])
+def test_random_trajectory_protocol(split, frames, lo, hi):
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        tr = T.random_trajectory(rng, split)
+        assert tr.frames == frames
+        knots = tr.angle_deg[::50]  # segment end points every 5 s
+        assert np.all((knots >= lo) & (knots <= hi))
+        assert tr.angle_deg.min() >= lo - 1e-9 and tr.angle_deg.max() <= hi + 1e-9  # quintics do not overshoot
+
+
+def test_quintic_boundary_conditions():
+    t = np.array([0.0, 5.0])
+    pos, vel = T.quintic(t, 30.0, 80.0, 5.0)
+    assert np.allclose(pos, [30, 80]) and np.allclose(vel, 0)
+    h = 1e-5
+    acc = (T.quintic(np.array([h]), 30, 80, 5)[1] - T.quintic(np.array([0.0]), 30, 80, 5)[1]) / h
+    assert abs(acc[0]) < 1e-3
+
+
+def test_seeded_generator_is_deterministic():
+    a = T.random_trajectory(np.random.default_rng(5), "train")
+    b = T.random_trajectory(np.random.default_rng(5), "train")
+    assert np.array_equal(a.angle_deg, b.angle_deg)
+
+
+def test_fixed_test_set_checksum_and_regeneration():
+    path = T.test_set_path()
+    recorded = path.with_suffix(".sha256").read_text().split()[0]
+    assert hashlib.sha256(path.read_bytes()).hexdigest() == recorded
+    stored = T.load_test_set()
+    assert len(stored) == 100 and all(t.frames == 200 for t in stored)
+    fresh = T.make_test_set()
+    assert np.allclose([t.angle_deg for t in stored], [t.angle_deg for t in fresh], atol=1e-6)
+
+
+def _write(tmp_path, text, name="t.csv"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def test_csv_any_rate_is_resampled_to_frames(tmp_path):
+    t = np.arange(0, 3.0001, 0.01)
+    rows = "".join(f"{a:.2f},{40 + 10 * np.sin(a):.5f}\n" for a in t)
+    (tr,) = T.load_csv(_write(tmp_path, "time_s,angle_deg\n" + rows))
+    assert tr.frames == 30
+    assert tr.angle_deg[10] == pytest.approx(40 + 10 * np.sin(1.0), abs=1e-4)
+
+
+def test_csv_with_several_trajectories(tmp_path):
+    p = _write(tmp_path, "trajectory,time_s,angle_deg\na,0,30\na,1,40\nb,0,50\nb,2,60\n")
+    a, b = T.load_csv(p)
+    assert a.frames == 10 and b.frames == 20
+
+
+@pytest.mark.parametrize("text,match", [
+    ("time,angle\n0,1\n", r"missing column.*time_s"),
+    ("time_s,angle_deg\n0,30\n0.1,nan\n", r"row 3.*angle"),
+    ("time_s,angle_deg\n0,30\n0.2,31\n0.1,32\n", r"row 4.*does not increase"),
+    ("time_s,angle_deg\n0,30\n0.1,200\n", r"row 3.*range"),
+    ("time_s,angle_deg\n0,30\n0.1,abc\n", r"row 3.*not numbers"),
+    ("time_s,angle_deg\n", r"no data rows"),
+])
+def test_bad_csv_names_file_row_and_fix(tmp_path, text, match):
+    p = _write(tmp_path, text, "bad.csv")
+    with pytest.raises(ValueError, match=match) as info:
+        T.load_csv(p)
+    assert "bad.csv" in str(info.value)
+
+
+def test_from_array_rejects_out_of_range():
+    with pytest.raises(ValueError, match="range"):
+        T.from_array([30, 40, 500])
