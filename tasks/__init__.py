@@ -1,0 +1,45 @@
+"""Tasks by name: dm_control environments of the paper's protocol, also as gymnasium ids."""
+from __future__ import annotations
+
+import difflib
+
+from shoulder_bench.anatomy import MUSCLES
+
+# name -> (muscles, discrete, one-line description)
+TASKS = {
+    "abduction_ssp": (("ssp",), False,
+                      "supraspinatus alone, continuous change of activation (+-1 %/frame); paper's PPO-1"),
+    "abduction_ssp_discrete": (("ssp",), True,
+                               "supraspinatus alone, 21 levels of change (-1..+1 %); paper's DQN-1"),
+    "abduction_4m": (MUSCLES, False, "ssp, isp, dmi, ld, continuous changes; paper's PPO-4 with the full reward"),
+    "abduction_4m_discrete": (MUSCLES, True, "ssp, isp, dmi, ld, 21 levels each (branching DQN); full reward"),
+}
+
+
+def list_tasks() -> list[str]:
+    return list(TASKS)
+
+
+def describe(name: str) -> str:
+    return TASKS[_check(name)][2]
+
+
+def _check(name: str) -> str:
+    if name not in TASKS:
+        close = difflib.get_close_matches(str(name), TASKS, n=1)
+        hint = f" Did you mean {close[0]!r}?" if close else ""
+        raise KeyError(f"unknown task {name!r}.{hint} Valid names: {', '.join(TASKS)}")
+    return name
+
+
+def load(name: str, split: str = "train", seed=None, trajectory=None, **options):
+    """The task `name` as a dm_control Environment.
+
+    split: "train" (10 s targets in [30, 90] deg) or "test" (20 s, [20, 100] deg); seed: the episode draws;
+    trajectory: a CSV path, an array of degrees at 0.1 s, or a `Trajectory` to track instead of random targets;
+    options: muscle_model ("fem"/"hill"), alpha, omega_max, tracking_only, init ("hold"/"zero").
+    """
+    from shoulder_bench.tasks.abduction import make_env
+
+    muscles, discrete, _ = TASKS[_check(name)]
+    return make_env(muscles, discrete=discrete, split=split, seed=seed, trajectory=trajectory, **options)

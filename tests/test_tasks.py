@@ -1,0 +1,160 @@
+"""Tasks by name through dm_control and gymnasium: protocol, reward, determinism, bad input, crashes."""
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import shoulder_bench
+from shoulder_bench import protocol
+
+TASKS = ["abduction_ssp", "abduction_ssp_discrete", "abduction_4m", "abduction_4m_discrete"]
+
+
+def test_names_and_unknown_name():
+    assert shoulder_bench.list_tasks() == TASKS
+    with pytest.raises(KeyError, match="abduction_4m"):
+        shoulder_bench.load("abduction_4mm")
+
+
+@pytest.mark.parametrize("name", TASKS)
+def test_protocol(name):
+    env = shoulder_bench.load(name, split="train", seed=0)
+    assert env.control_timestep() == pytest.approx(0.1)
+    n = 4 if "4m" in name else 1
+    spec = env.action_spec()
+    if "discrete" in name:
+        assert spec.dtype == np.int64 and int(np.max(spec.maximum)) == 20
+    else:
+        assert spec.shape == (n,) and np.allclose(spec.minimum, -0.01) and np.allclose(spec.maximum, 0.01)
+    ts = env.reset()
+    assert set(ts.observation) == set(protocol.OBSERVATION_KEYS) and ts.observation["activations"].shape == (n,)
+    steps = 0
+    while not ts.last():
+        ts = env.step(np.zeros(n) if "discrete" not in name else np.full(spec.shape, 10))
+        steps += 1
+    assert steps == 100 and ts.discount == 1.0  # 10 s train episode ends by time, not as a terminal state
+
+
+def test_test_split_is_20_s():
+    env = shoulder_bench.load("abduction_ssp", split="test", seed=0)
+    env.reset()
+    assert env.task.target.frames == 200
+    assert np.all((env.task.target.angle_deg[::50] >= 20) & (env.task.target.angle_deg[::50] <= 100))
+
+
+def test_observation_and_reward_by_hand():
+    env = shoulder_bench.load("abduction_4m", split="train", seed=2, alpha=0.5, omega_max=0.005)
+    ts = env.reset()
+    task, physics = env.task, env.physics
+    a0 = physics.activations(task.muscles).copy()
+    action = np.array([0.004, -0.02, 0.008, 0.0])  # second entry out of range: clipped, but penalised as sent
+    ts = env.step(action)
+    applied = np.clip(a0 + np.clip(action, -0.01, 0.01), 0, 1)
+    assert np.allclose(ts.observation["activations"], applied)
+    phi = np.degrees(physics.data.qpos[0])
+    assert ts.observation["angle"][0] == pytest.approx(phi)
+    assert ts.observation["angular_velocity"][0] == pytest.approx(np.degrees(physics.data.qvel[0]))
+    assert ts.observation["target_angle"][0] == task.target.angle_deg[2]  # phi_hat(t + 1) with t = 1
+    assert ts.observation["target_velocity"][0] == task.target.velocity_deg_s[2]
+    expected = (-abs(phi - task.target.angle_deg[1]) - 0.5 * 100 * (0.004 + 0.02 + 0.008)
+                - (1 / 4) * (0 + 1 + 1 + 0))
+    assert ts.reward == pytest.approx(expected, rel=1e-12)
+
+
+def test_single_muscle_reward_is_tracking_only():
+    env = shoulder_bench.load("abduction_ssp", seed=1)
+    env.reset()
+    ts = env.step(np.array([0.01]))
+    assert ts.reward == pytest.approx(-abs(ts.observation["angle"][0] - env.task.target.angle_deg[1]))
+
+
+def test_discrete_levels():
+    assert np.allclose(protocol.level_to_delta(np.arange(21)), np.linspace(-0.01, 0.01, 21))
+    env = shoulder_bench.load("abduction_4m_discrete", seed=0)
+    env.reset()
+    a0 = env.physics.activations(env.task.muscles).copy()
+    ts = env.step(np.array([20, 10, 15, 0]))
+    assert np.allclose(ts.observation["activations"], np.clip(a0 + [0.01, 0, 0.005, -0.01], 0, 1))
+
+
+def _roll(name, seed, actions):
+    env = shoulder_bench.load(name, split="test", seed=seed)
+    ts = env.reset()
+    out = []
+    for a in actions:
+        ts = env.step(a)
+        out.append(np.concatenate([np.ravel(v) for v in ts.observation.values()] + [[ts.reward]]))
+    return np.array(out)
+
+
+def test_same_seed_same_episode_other_seed_other_episode():
+    acts = np.random.default_rng(0).uniform(-0.01, 0.01, (40, 4))
+    a, b, c = _roll("abduction_4m", 5, acts), _roll("abduction_4m", 5, acts), _roll("abduction_4m", 6, acts)
+    assert np.array_equal(a, b) and not np.array_equal(a, c)
+
+
+@pytest.mark.parametrize("name", ["abduction_ssp", "abduction_4m"])
+@pytest.mark.parametrize("bad", ["nan", "inf", "shape", "string"])
+def test_bad_action_raises_and_changes_nothing(name, bad):
+    n = 4 if "4m" in name else 1
+    good = np.full(n, 0.004)
+    e1, e2 = shoulder_bench.load(name, split="test", seed=3), shoulder_bench.load(name, split="test", seed=3)
+    e1.reset(), e2.reset()
+    e1.step(good), e2.step(good)
+    action = {"nan": np.full(n, np.nan), "inf": np.full(n, np.inf), "shape": np.zeros(n + 2),
+              "string": np.array(["a"] * n)}[bad]
+    with pytest.raises(ValueError, match=rf"\({n},\)|{n} numbers"):
+        e1.step(action)
+    t1, t2 = e1.step(good), e2.step(good)
+    assert all(np.array_equal(t1.observation[k], t2.observation[k]) for k in t1.observation)
+    assert t1.reward == t2.reward
+
+
+def test_bad_discrete_action():
+    env = shoulder_bench.load("abduction_4m_discrete", seed=0)
+    env.reset()
+    for bad in (np.array([21, 0, 0, 0]), np.array([0.5, 0, 0, 0]), np.array([1, 2])):
+        with pytest.raises(ValueError, match="0..20"):
+            env.step(bad)
+
+
+def test_crash_ends_episode_with_penalty_not_exception():
+    env = shoulder_bench.load("abduction_4m", split="train", seed=0)
+    env.reset()
+    env.step(np.zeros(4))
+    env.physics.data.qvel[0] = 1e4  # a blow-up: the arm leaves the model's range within the frame
+    ts = env.step(np.zeros(4))
+    assert ts.last() and ts.discount == 0.0 and env.physics.failed()
+    assert ts.reward == pytest.approx(-protocol.CRASH_ERROR_DEG * (100 - 2 + 1))
+    assert not env.step(np.zeros(4)).last()  # the next step starts a new episode
+
+
+def test_trajectory_from_csv_and_array(tmp_path):
+    p = tmp_path / "t.csv"
+    t = np.arange(0, 5.0001, 0.02)
+    p.write_text("time_s,angle_deg\n" + "".join(f"{a:.2f},{40 + 20 * np.sin(a):.4f}\n" for a in t))
+    env = shoulder_bench.load("abduction_4m", trajectory=p, seed=0)
+    ts, n = env.reset(), 0
+    while not ts.last():
+        ts, n = env.step(np.zeros(4)), n + 1
+    assert n == 50
+    env = shoulder_bench.load("abduction_ssp", trajectory=np.linspace(30, 60, 31))
+    assert env.reset().observation["angle"][0] == pytest.approx(30.0)
+
+
+@pytest.mark.parametrize("name", TASKS)
+def test_gymnasium(name):
+    env = gym.make(f"ShoulderBench/{name}-v0")
+    check_env(env.unwrapped, skip_render_check=True)
+    obs, info = env.reset(seed=4)
+    obs2, _ = env.reset(seed=4)
+    assert np.array_equal(obs, obs2)
+    obs, r, term, trunc, info = env.step(env.action_space.sample())
+    assert {"angle_deg", "target_deg", "activations", "crashed"} <= set(info)
+    assert obs.dtype == np.float32 and env.observation_space.contains(obs)
+
+
+def test_gymnasium_options_pass_through():
+    env = gym.make("ShoulderBench/abduction_ssp-v0", split="test")
+    env.reset(seed=0)
+    assert env.unwrapped.task.target.frames == 200

@@ -1,0 +1,1 @@
+"""Training: PPO (rsl-rl), Double DQN and branching DQN."""
