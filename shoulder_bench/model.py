@@ -73,10 +73,10 @@ class _ModelEntry:
 class _DataEntry:
     __slots__ = ("ref", "qpos", "qvel", "ctrl", "gain", "bias")
 
-    def __init__(self, d: mujoco.MjData, n: int):
+    def __init__(self, d: mujoco.MjData):
         self.ref = weakref.ref(d)
         self.qpos, self.qvel, self.ctrl = d.qpos, d.qvel, d.ctrl  # views stay valid while d lives
-        self.gain, self.bias = np.zeros(n), np.zeros(n)
+        self.gain, self.bias = [], []
 
 
 def _model_entry(m: mujoco.MjModel) -> _ModelEntry | None:
@@ -91,30 +91,46 @@ def _model_entry(m: mujoco.MjModel) -> _ModelEntry | None:
     return e
 
 
-def _data_entry(d: mujoco.MjData, n: int) -> _DataEntry:
+def _data_entry(d: mujoco.MjData) -> _DataEntry:
     e = _datas.get(id(d))
     if e is None or e.ref() is not d:
-        e = _datas[id(d)] = _DataEntry(d, n)
+        e = _datas[id(d)] = _DataEntry(d)
     return e
 
 
-def _gain(m, d, i):
+_current: list = [None, None, None, None]  # the last (model, data, model entry, data entry): the common case
+
+
+def _entries(m, d):
+    cur = _current
+    if m is cur[0] and d is cur[1]:
+        return cur[2], cur[3]
     e = _model_entry(m)
-    if e is None or e.cols[i] < 0:
+    s = None if e is None else _data_entry(d)
+    cur[:] = [m, d, e, s]
+    return e, s
+
+
+def _gain(m, d, i):
+    e, s = _entries(m, d)
+    if e is None:
         return 0.0
-    s = _data_entry(d, len(e.cols))
+    c = e.cols[i]
+    if c < 0:
+        return 0.0
     if i == e.first:  # MuJoCo visits actuators in order: evaluate all muscles once, at the first one
-        gb = e.law.gain_bias_one(s.qpos[e.qadr], s.qvel[e.vadr], s.ctrl[e.order])
-        np.negative(gb[0], out=s.gain)  # negative: muscles pull, shortening their tendon
-        np.negative(gb[1], out=s.bias)
-    return float(s.gain[e.cols[i]])
+        gain, bias = e.law.gain_bias_one(s.qpos[e.qadr], s.qvel[e.vadr], s.ctrl[e.order])
+        s.gain = [-x for x in gain.tolist()]  # negative: muscles pull, shortening their tendon
+        s.bias = [-x for x in bias.tolist()]
+    return s.gain[c]
 
 
 def _bias(m, d, i):
-    e = _model_entry(m)
-    if e is None or e.cols[i] < 0:
+    e, s = _entries(m, d)
+    if e is None:
         return 0.0
-    return float(_data_entry(d, len(e.cols)).bias[e.cols[i]])
+    c = e.cols[i]
+    return 0.0 if c < 0 else s.bias[c]
 
 
 def install_callbacks() -> None:
@@ -134,6 +150,7 @@ def attach_law(m: mujoco.MjModel, law) -> None:
     m.actuator_user[:, 0] = law_id
     m.actuator_user[:, 1] = [law.muscles.index(x) if x in law.muscles else -1 for x in names]
     _models.pop(id(m), None)
+    _current[:] = [None, None, None, None]
 
 
 def load_model(muscle_model: str = DEFAULT_MUSCLE_MODEL, muscles=None, path: Path | str = MODEL_PATH) -> mujoco.MjModel:

@@ -129,8 +129,7 @@ class ForceLaw:
         self._arm = np.ascontiguousarray(np.stack([t.moment_arm_m for t in tables], axis=1))  # (K, n)
         self._one_state = np.zeros(2)
         self._one_act = np.zeros((1, self._n))
-        self._one_out = np.zeros((4, 1, self._n))
-        self._one_gb = np.zeros((2, self._n))
+        self._one_out = np.zeros((5, 1, self._n))
         self._neg_inv_vscale = -1.0 / np.array([VMAX_LOPT_PER_S * anatomy.OPTIMAL_FIBRE_LENGTH[m]
                                                 for m in self.muscles])
 
@@ -147,27 +146,30 @@ class ForceLaw:
             t.check_against_model(arms[m], table_path(m, muscle_model, folder))
         return cls(tables)
 
-    def _evaluate(self, angle, velocity, activation):
-        """(active, per-unit active, passive, force-velocity factor), each (B, n), from one kernel pass."""
+    def _evaluate_all(self, angle, velocity, activation) -> np.ndarray:
+        """(5, B, n): active force, active per unit activation, passive force, force-velocity factor, gain."""
         angle = np.ascontiguousarray(angle, dtype=np.float64)
         velocity = np.ascontiguousarray(velocity, dtype=np.float64)
         activation = np.ascontiguousarray(activation, dtype=np.float64)
-        out = np.empty((4,) + activation.shape)
+        out = np.empty((5,) + activation.shape)
         _kernel(self._flat, self._arm, self.levels, self._a0, self._inv_da, self._neg_inv_vscale,
                 angle, velocity, activation, out)
+        return out
+
+    def _evaluate(self, angle, velocity, activation):
+        """(active, per-unit active, passive, force-velocity factor), each (B, n), from one kernel pass."""
+        out = self._evaluate_all(angle, velocity, activation)
         return out[0], out[1], out[2], out[3]
 
-    def gain_bias_one(self, angle: float, velocity: float, activation: np.ndarray) -> np.ndarray:
-        """The callback's entry: one state, returns the (2, n) array [gain; bias] (a reused buffer)."""
+    def gain_bias_one(self, angle: float, velocity: float, activation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The callback's entry: one state; returns (gain, bias), each (n,), views of a reused buffer."""
         self._one_state[0] = angle
         self._one_state[1] = velocity
         self._one_act[0] = activation
-        _kernel(self._flat, self._arm, self.levels, self._a0, self._inv_da, self._neg_inv_vscale,
-                self._one_state[:1], self._one_state[1:], self._one_act, self._one_out)
         out = self._one_out
-        np.multiply(out[1, 0], out[3, 0], out=self._one_gb[0])
-        self._one_gb[1] = out[2, 0]
-        return self._one_gb
+        _kernel(self._flat, self._arm, self.levels, self._a0, self._inv_da, self._neg_inv_vscale,
+                self._one_state[:1], self._one_state[1:], self._one_act, out)
+        return out[4, 0], out[2, 0]
 
     def moment_arm(self, angle: np.ndarray) -> np.ndarray:
         """(B, n) tendon moment arms (m) interpolated from the tables at angles (rad)."""
@@ -192,8 +194,8 @@ class ForceLaw:
 
     def gain_bias(self, angle: np.ndarray, velocity: np.ndarray, activation: np.ndarray):
         """Split `force` as MuJoCo's `gain * activation + bias`: gain = active force per unit activation."""
-        _, per_unit, passive, fv = self._evaluate(angle, velocity, activation)
-        return per_unit * fv, passive
+        out = self._evaluate_all(angle, velocity, activation)
+        return out[4], out[2]
 
     def torque(self, angle: np.ndarray, velocity: np.ndarray, activation: np.ndarray) -> np.ndarray:
         """(B, n) joint torques (N m, positive elevates), using the tabled moment arms."""
@@ -202,7 +204,8 @@ class ForceLaw:
 
 @numba.njit(cache=True, nogil=True)
 def _kernel(flat, arm, levels, a0, inv_da, neg_inv_vscale, angle, velocity, activation, out):
-    """The law for a batch: out[0..3] = active force, active force per unit activation, passive force, FV factor.
+    """The law for a batch: out[0..4] = active force, active force per unit activation, passive force, FV factor, and
+    MuJoCo's gain (active per unit activation x FV).
 
     Compiled (numba) because it runs at every physics step, often for one state, where numpy's per-call overhead
     (~1 us per operation) would cost more than the physics; one kernel serves the callback and the batch alike.
@@ -242,6 +245,7 @@ def _kernel(flat, arm, levels, a0, inv_da, neg_inv_vscale, angle, velocity, acti
             out[1, b, c] = per_unit
             out[2, b, c] = passive
             out[3, b, c] = fv
+            out[4, b, c] = per_unit * fv
 
 
 _ARM_CACHE: dict[tuple, dict[str, np.ndarray]] = {}

@@ -28,8 +28,8 @@ def reward(angle_deg, target_deg, sent, alpha: float, omega_max: float, tracking
     r = -np.abs(np.atleast_1d(angle_deg) - np.atleast_1d(target_deg)).astype(float)
     if tracking_only:
         return r
-    sent = np.atleast_2d(sent)
-    return r - alpha * 100.0 * np.abs(sent).sum(axis=1) - (np.abs(sent) > omega_max).mean(axis=1)
+    mag = np.abs(np.atleast_2d(sent))
+    return r - alpha * 100.0 * mag.sum(axis=1) - np.count_nonzero(mag > omega_max, axis=1) / mag.shape[1]
 
 
 def observation(angle_deg, velocity_deg_s, target_deg, target_velocity_deg_s, activations) -> dict[str, np.ndarray]:
@@ -38,3 +38,33 @@ def observation(angle_deg, velocity_deg_s, target_deg, target_velocity_deg_s, ac
     return {"angle": col(angle_deg), "angular_velocity": col(velocity_deg_s), "target_angle": col(target_deg),
             "target_velocity": col(target_velocity_deg_s),
             "activations": np.atleast_2d(np.asarray(activations, dtype=float))}
+
+
+def to_delta(action, n: int, discrete: bool, batch: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(applied, sent) changes of activation, each (B, n), from actions; ValueError for a wrong shape or NaN/inf.
+
+    Continuous: finite values outside +-ACTION_LIMIT are clipped (`sent` keeps them for the reward). Discrete: integer
+    levels 0..LEVELS-1. `batch=None` means a single action of shape (n,) (or () for one discrete muscle).
+    """
+    a = np.asarray(action)
+    rows = 1 if batch is None else batch
+    single_shapes = ((n,), (1, n)) + (((), (1,)) if discrete and n == 1 else ())
+    ok_shape = a.shape in single_shapes if batch is None else a.shape in ((batch, n),) + (((batch,),) if n == 1 else ())
+    where = "" if batch is None else f" for {batch} environments"
+    if discrete:
+        expected = f"{'an integer' if n == 1 else f'{n} integers'} in 0..{LEVELS - 1} per environment"
+        if not ok_shape or not np.issubdtype(a.dtype, np.number):
+            raise ValueError(f"action of shape {a.shape}: expected {expected}{where}")
+        flat = a.reshape(rows, n).astype(float)
+        if not np.all(np.isfinite(flat)) or np.any(flat != np.round(flat)) or np.any((flat < 0) | (flat >= LEVELS)):
+            raise ValueError(f"action {np.asarray(action).tolist()}: expected {expected} (0..{LEVELS - 1})")
+        d = level_to_delta(flat.astype(np.int64))
+        return d, d
+    if not ok_shape or not np.issubdtype(a.dtype, np.number):
+        raise ValueError(f"action of shape {a.shape}: expected shape ({n},){where}, one change of activation per "
+                         f"muscle within +-{ACTION_LIMIT}")
+    sent = a.reshape(rows, n).astype(float)
+    if not np.all(np.isfinite(sent)):
+        raise ValueError(f"action {np.asarray(action).tolist()} is not finite: expected {n} numbers within "
+                         f"+-{ACTION_LIMIT} (finite values outside are clipped)")
+    return np.clip(sent, -ACTION_LIMIT, ACTION_LIMIT), sent

@@ -7,6 +7,8 @@ U[20, 100] deg) or a given one. Numerical failure ends the episode with a penalt
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from dm_control.mujoco import wrapper
 from dm_control.mujoco.engine import Physics as _Physics
@@ -24,7 +26,8 @@ VALID_MARGIN_DEG = 5.0  # beyond the joint limits by more than this = the simula
 class Physics(_Physics):
     """The shoulder with named accessors (degrees at this surface, radians inside MuJoCo)."""
 
-    crashed = False
+    crashed = False  # set when MuJoCo reported an instability during the last step
+    _failed = False
 
     def angle_deg(self) -> float:
         return float(np.degrees(self.data.qpos[0]))  # the abduction hinge is the model's only joint
@@ -46,11 +49,15 @@ class Physics(_Physics):
             self.crashed = True
 
     def failed(self) -> bool:
-        d = self.data
-        lo, hi = JOINT_RANGE_DEG
-        angle = self.angle_deg()
-        return (self.crashed or not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel)))
-                or not (lo - VALID_MARGIN_DEG <= angle <= hi + VALID_MARGIN_DEG))
+        """Whether the simulation has failed (as of the last `check_failure`)."""
+        return self._failed
+
+    def check_failure(self) -> bool:
+        """Non-finite state, a MuJoCo instability, or the arm more than VALID_MARGIN_DEG past the joint limits."""
+        q, v = float(self.data.qpos[0]), float(self.data.qvel[0])
+        lo, hi = np.radians(JOINT_RANGE_DEG[0] - VALID_MARGIN_DEG), np.radians(JOINT_RANGE_DEG[1] + VALID_MARGIN_DEG)
+        self._failed = bool(self.crashed or not (math.isfinite(q) and math.isfinite(v)) or not lo <= q <= hi)
+        return self._failed
 
 
 def make_physics(muscles, muscle_model: str) -> Physics:
@@ -106,6 +113,7 @@ class Abduction(control.Task):
         self.sent = np.zeros(len(self.muscles))
         self._ids = physics.actuator_ids(self.muscles)
         physics.crashed = False
+        physics._failed = False
         physics.data.qpos[0] = np.radians(self.target.angle_deg[0])
         physics.data.qvel[0] = 0.0
         physics.data.ctrl[:] = 0.0
@@ -128,27 +136,12 @@ class Abduction(control.Task):
 
     def action_to_delta(self, action) -> tuple[np.ndarray, np.ndarray]:
         """(applied change, change as sent) from an action; raises ValueError for NaN/inf or a wrong shape."""
-        n = len(self.muscles)
-        a = np.asarray(action)
-        if self.discrete:
-            expected = f"{'an integer' if n == 1 else f'{n} integers'} in 0..{protocol.LEVELS - 1}"
-            flat = a.reshape(-1) if a.size == n else None
-            if flat is None or not np.all(np.isfinite(flat.astype(float))) or np.any(flat != np.round(flat)) \
-                    or np.any((flat < 0) | (flat >= protocol.LEVELS)):
-                raise ValueError(f"action {action!r}: expected {expected} (shape {() if n == 1 else (n,)})")
-            d = protocol.level_to_delta(flat.astype(np.int64))
-            return d, d
-        if a.shape not in ((n,), (1, n)) or not np.issubdtype(a.dtype, np.number):
-            raise ValueError(f"action of shape {a.shape}: expected shape ({n},), one change of activation per muscle "
-                             f"{self.muscles} within +-{protocol.ACTION_LIMIT}")
-        a = a.reshape(n).astype(float)
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"action {a.tolist()} is not finite: expected {n} numbers within "
-                             f"+-{protocol.ACTION_LIMIT} (finite values outside are clipped)")
-        return np.clip(a, -protocol.ACTION_LIMIT, protocol.ACTION_LIMIT), a
+        applied, sent = protocol.to_delta(action, len(self.muscles), self.discrete)
+        return applied[0], sent[0]
 
     def after_step(self, physics):
         self.frame += 1
+        physics.check_failure()
 
     def get_observation(self, physics):
         k = min(self.frame + 1, len(self.target.angle_deg) - 1)
