@@ -8,7 +8,7 @@ from pathlib import Path
 
 from shoulder_bench import anatomy as A
 
-PHYSICS_TIMESTEP = 0.025  # s, RK4: 4 physics steps per 0.1 s frame (benchmarks/physics_step.py, docs/physics.md)
+PHYSICS_TIMESTEP = 0.05  # s, RK4: 2 physics steps per 0.1 s frame (benchmarks/physics_step.py, docs/physics.md)
 JOINT_DAMPING = 0.5  # N m s/rad: passive capsule and soft tissue; keeps the 1-DOF arm from ringing
 MUSCLE_RGBA = {"ssp": "0.80 0.25 0.25 1", "isp": "0.85 0.45 0.20 1", "dmi": "0.75 0.15 0.35 1",
                "ld": "0.60 0.20 0.45 1"}
