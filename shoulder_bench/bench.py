@@ -1,0 +1,113 @@
+"""`shoulder-bench bench`: throughput measured side by side in one run (the machines are shared and noisy).
+
+- batched: `make_vec("abduction_4m", N)` frames/s (a frame = 0.1 s simulated) with random actions and auto-resets;
+- bare MuJoCo: the same compiled model with fixed-gain actuators and no callback, stepped by `mujoco.rollout` with the
+  same physics step, integrator and threads; the ratio batched / bare;
+- the single gymnasium env in simulated seconds per wall second;
+- peak resident memory of the process.
+Ours and bare alternate (A, B, A, B, ...) and the best of the repeats is kept for each.
+"""
+from __future__ import annotations
+
+import json
+import resource
+import time
+
+import mujoco
+import numpy as np
+import torch
+from mujoco import rollout
+
+TASK = "abduction_4m"
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("bench", help="throughput and memory, measured side by side")
+    p.add_argument("--quick", action="store_true", help="tiny budget (CI): small batches, few frames")
+    p.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    p.add_argument("--repeats", type=int, default=3)
+    p.set_defaults(func=run)
+
+
+def batched_rate(venv, frames: int, gen: torch.Generator) -> float:
+    n = venv.num_envs
+    for _ in range(2):
+        venv.step(torch.rand(n, venv.num_actions, generator=gen) * 0.02 - 0.01)
+    t = time.perf_counter()
+    for _ in range(frames):
+        venv.step(torch.rand(n, venv.num_actions, generator=gen) * 0.02 - 0.01)
+    return n * frames / (time.perf_counter() - t)
+
+
+def bare_rate(n: int, frames: int, nthread: int = 2) -> tuple[float, float]:
+    """Frames/s of plain MuJoCo on the same model (fixed gains, no callback), and its physics step."""
+    from shoulder_bench.model import compile_model
+
+    m = compile_model()
+    m.actuator_gaintype[:] = mujoco.mjtGain.mjGAIN_FIXED
+    m.actuator_gainprm[:, 0] = 1.0
+    m.actuator_biastype[:] = mujoco.mjtBias.mjBIAS_NONE
+    spf = max(1, int(round(0.1 / m.opt.timestep)))
+    d = mujoco.MjData(m)
+    d.qpos[0] = np.radians(45.0)
+    mujoco.mj_forward(m, d)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    s0 = np.zeros(mujoco.mj_stateSize(m, spec))
+    mujoco.mj_getState(m, d, s0, spec)
+    state = np.tile(s0, (n, 1))
+    ctrl = np.full((n, spf * frames, m.nu), -20.0)
+    datas = [mujoco.MjData(m) for _ in range(nthread)]
+    with rollout.Rollout(nthread=nthread) as r:
+        r.rollout(m, datas, state, ctrl[:, :spf])
+        t = time.perf_counter()
+        r.rollout(m, datas, state, ctrl)
+        dt = time.perf_counter() - t
+    return n * frames / dt, float(m.opt.timestep)
+
+
+def gym_rate(seconds: float) -> float:
+    import gymnasium as gym
+
+    import shoulder_bench  # noqa: F401 (registers the ids)
+
+    env = gym.make(f"ShoulderBench/{TASK}-v0", disable_env_checker=True)
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    steps, t = 0, time.perf_counter()
+    while time.perf_counter() - t < seconds:
+        _, _, term, trunc, _ = env.step(env.action_space.sample())
+        steps += 1
+        if term or trunc:
+            env.reset()
+    return steps * 0.1 / (time.perf_counter() - t)
+
+
+def run(args) -> int:
+    import shoulder_bench
+
+    torch.set_num_threads(2)
+    sizes, frames = ((16, 64), 5) if args.quick else ((64, 256, 1024), 20)
+    repeats = 1 if args.quick else args.repeats
+    gen = torch.Generator().manual_seed(0)
+    rows = []
+    for n in sizes:
+        venv = shoulder_bench.make_vec(TASK, n, seed=0)
+        ours, bare = [], []
+        for _ in range(repeats):
+            ours.append(batched_rate(venv, frames, gen))
+            b, step = bare_rate(n, frames)
+            bare.append(b)
+        venv.close()
+        rows.append({"num_envs": n, "batched_fps": max(ours), "bare_fps": max(bare),
+                     "ratio": max(ours) / max(bare), "physics_step_s": step})
+    sim_rate = max(gym_rate(0.5 if args.quick else 3.0) for _ in range(repeats))
+    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"task {TASK}, physics step {rows[0]['physics_step_s'] * 1000:g} ms (RK4), 2 threads, best of {repeats}")
+    print(f"{'N':>6} {'batched frames/s':>17} {'bare MuJoCo frames/s':>21} {'ratio':>6}")
+    for r in rows:
+        print(f"{r['num_envs']:>6} {r['batched_fps']:>17,.0f} {r['bare_fps']:>21,.0f} {r['ratio']:>6.2f}")
+    print(f"single gymnasium env: {sim_rate:,.0f} simulated s per wall s")
+    print(f"peak memory: {peak_mb:,.0f} MB")
+    if args.json:
+        print(json.dumps({"task": TASK, "rows": rows, "gym_sim_s_per_s": sim_rate, "peak_rss_mb": peak_mb}))
+    return 0

@@ -1,0 +1,129 @@
+"""N copies of a task in lockstep as an rsl-rl `VecEnv` (TensorDict observations, auto-reset, episode statistics).
+
+Copy i draws its targets exactly as `shoulder_bench.load(name, seed=seed + i)` does, and the physics reproduces the
+callback path (`simulator.BatchSimulator`), so a batched episode equals a single-env episode with the same actions.
+"""
+from __future__ import annotations
+
+import numpy as np
+import torch
+from rsl_rl.env import VecEnv as _RslVecEnv
+from tensordict import TensorDict
+
+from shoulder_bench import protocol, statics
+from shoulder_bench import trajectory as targets
+from shoulder_bench.anatomy import JOINT_RANGE_DEG
+from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
+from shoulder_bench.muscle import ForceLaw
+from shoulder_bench.simulator import BatchSimulator
+from shoulder_bench.tasks import TASKS, _check
+from shoulder_bench.tasks.abduction import VALID_MARGIN_DEG, Abduction, _as_trajectory
+
+MAX_ABS = 1e10  # MuJoCo's mjMAXVAL: beyond it the single env's MuJoCo would warn (a crash)
+
+
+class VecEnv(_RslVecEnv):
+    """`shoulder_bench.make_vec(name, num_envs, device, seed, **options)`; options as for `shoulder_bench.load`."""
+
+    def __init__(self, name: str, num_envs: int, device: str = "cpu", seed=None, trajectory=None,
+                 muscle_model: str = DEFAULT_MUSCLE_MODEL, nthread: int = 2, **options):
+        muscles, discrete, _ = TASKS[_check(name)]
+        if num_envs < 1:
+            raise ValueError(f"num_envs must be at least 1, got {num_envs}")
+        self.name, self.num_envs, self.device = name, int(num_envs), torch.device(device)
+        self.task = Abduction(muscles, discrete=discrete, trajectory_=_as_trajectory(trajectory), **options)
+        self.muscles, self.discrete, self.n = tuple(muscles), discrete, len(muscles)
+        self.num_actions = self.n
+        self.cfg = {"task": name, "muscle_model": muscle_model, **options}
+        self.law = ForceLaw.load(muscle_model, muscles=self.muscles)
+        self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread)
+        self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
+        n_frames = (self.task.fixed.frames if self.task.fixed is not None
+                    else int(round(targets.SPLITS[self.task.split]["duration_s"] / protocol.FRAME_S)))
+        self.max_episode_length = n_frames
+        self.targets = np.zeros((self.num_envs, n_frames + 1))
+        self.target_vel = np.zeros_like(self.targets)
+        self.frames = np.zeros(self.num_envs, dtype=np.int64)
+        self.q, self.v = np.zeros(self.num_envs), np.zeros(self.num_envs)
+        self.act = np.zeros((self.num_envs, self.n))
+        self.episode_length_buf = torch.zeros(self.num_envs, dtype=torch.long, device=self.device)
+        self._return = np.zeros(self.num_envs)
+        self._abs_err = np.zeros(self.num_envs)
+        self._reset(np.arange(self.num_envs))
+
+    # --- episodes ---------------------------------------------------------------------------------------------------
+    def _reset(self, idx: np.ndarray) -> None:
+        for i in idx:
+            tr = self.task.fixed if self.task.fixed is not None else targets.random_trajectory(self.rngs[i],
+                                                                                              self.task.split)
+            self.targets[i, :len(tr.angle_deg)] = tr.angle_deg
+            self.target_vel[i, :len(tr.angle_deg)] = tr.velocity_deg_s
+        start = self.targets[idx, 0]
+        self.q[idx] = np.radians(start)
+        self.v[idx] = 0.0
+        self.act[idx] = statics.holding_activation(self.law, start) if self.task.init == "hold" else 0.0
+        self.frames[idx] = 0
+        self._return[idx] = 0.0
+        self._abs_err[idx] = 0.0
+        self.episode_length_buf[torch.as_tensor(idx, device=self.device)] = 0
+
+    def observation_array(self) -> np.ndarray:
+        """(N, 4 + n) float64 observations in protocol.OBSERVATION_KEYS order (the TensorDict holds float32 casts)."""
+        k = np.minimum(self.frames + 1, self.max_episode_length)
+        rows = np.arange(self.num_envs)
+        obs = protocol.observation(np.degrees(self.q), np.degrees(self.v), self.targets[rows, k],
+                                   self.target_vel[rows, k], self.act)
+        return np.concatenate([obs[key] for key in protocol.OBSERVATION_KEYS], axis=1)
+
+    def _observation(self) -> TensorDict:
+        flat = torch.as_tensor(self.observation_array(), dtype=torch.float32, device=self.device)
+        return TensorDict({"policy": flat, "critic": flat.clone()}, batch_size=[self.num_envs], device=self.device)
+
+    def get_observations(self) -> TensorDict:
+        return self._observation()
+
+    def reset(self) -> TensorDict:
+        self._reset(np.arange(self.num_envs))
+        return self._observation()
+
+    # --- stepping ----------------------------------------------------------------------------------------------------
+    def step(self, actions) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
+        a = actions.detach().cpu().numpy() if torch.is_tensor(actions) else np.asarray(actions)
+        applied, sent = protocol.to_delta(a, self.n, self.discrete, batch=self.num_envs)  # raises before any change
+        self.act = np.clip(self.act + applied, 0.0, 1.0)
+        q, v, bad = self.sim.frame(self.q, self.v, self.act)
+        self.q, self.v = q, v
+        self.frames += 1
+        angle = np.degrees(q)
+        rows = np.arange(self.num_envs)
+        lo, hi = JOINT_RANGE_DEG
+        crashed = bad | ~np.isfinite(q) | ~np.isfinite(v) | (np.abs(q) > MAX_ABS) | (np.abs(v) > MAX_ABS)
+        crashed |= (angle < lo - VALID_MARGIN_DEG) | (angle > hi + VALID_MARGIN_DEG)
+        target_now = self.targets[rows, self.frames]
+        reward = protocol.reward(angle, target_now, sent, self.task.alpha, self.task.omega_max,
+                                 self.task.tracking_only)
+        left = self.max_episode_length - self.frames + 1
+        reward = np.where(crashed, -protocol.CRASH_ERROR_DEG * left, reward)
+        self.last_reward = reward  # float64; the returned tensor is a float32 cast
+        self.last_angle_deg, self.last_target_deg, self.last_crashed = angle, target_now, crashed
+        self._return += reward
+        self._abs_err += np.where(crashed, 0.0, np.abs(angle - target_now))
+        time_out = (self.frames >= self.max_episode_length) & ~crashed
+        done = crashed | time_out
+        self.episode_length_buf += 1
+        extras = {"time_outs": torch.as_tensor(time_out, device=self.device)}
+        finished = np.flatnonzero(done)
+        if finished.size:
+            extras["log"] = {"/episode/return": float(self._return[finished].mean()),
+                             "/episode/length": float(self.frames[finished].mean()),
+                             "/episode/mae_deg": float((self._abs_err[finished] / self.frames[finished]).mean()),
+                             "/episode/crash_rate": float(crashed[finished].mean())}
+            self.last_finished = {"return": self._return[finished].copy(), "frames": self.frames[finished].copy(),
+                                  "crashed": crashed[finished].copy()}
+            self._reset(finished)
+        obs = self._observation()
+        return (obs, torch.as_tensor(reward, dtype=torch.float32, device=self.device),
+                torch.as_tensor(done, dtype=torch.long, device=self.device), extras)
+
+    def close(self) -> None:
+        self.sim.close()

@@ -1,0 +1,95 @@
+"""The batched environment: equal to the single env, auto-reset, per-copy crashes, rsl-rl shapes, bench command."""
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+
+import shoulder_bench
+from shoulder_bench import protocol
+from shoulder_bench.cli import main
+
+
+def _flat(ts):
+    return np.concatenate([np.ravel(ts.observation[k]) for k in protocol.OBSERVATION_KEYS])
+
+
+@pytest.mark.parametrize("name", ["abduction_4m", "abduction_ssp_discrete"])
+def test_batched_equals_single(name):
+    n_env, seed = 3, 21
+    venv = shoulder_bench.make_vec(name, n_env, seed=seed)
+    envs = [shoulder_bench.load(name, seed=seed + i) for i in range(n_env)]
+    steps = [e.reset() for e in envs]
+    assert np.abs(venv.observation_array() - np.array([_flat(t) for t in steps])).max() <= 1e-9
+    rng = np.random.default_rng(0)
+    ended = 0
+    for _ in range(230):  # crosses the 100-frame episode boundary twice: auto-reset included
+        if venv.discrete:
+            a = rng.integers(0, 21, (n_env, venv.num_actions))
+        else:
+            a = rng.uniform(-0.012, 0.012, (n_env, venv.num_actions))
+        venv.step(torch.as_tensor(a))
+        obs = venv.observation_array()
+        for i, env in enumerate(envs):
+            ts = env.step(a[i] if venv.num_actions > 1 or not venv.discrete else a[i, 0])
+            assert abs(ts.reward - venv.last_reward[i]) <= 1e-9
+            if ts.last():
+                ended += 1
+                ts = env.reset()
+            assert np.abs(_flat(ts) - obs[i]).max() <= 1e-9
+    assert ended == 2 * n_env
+    venv.close()
+
+
+def test_tensordict_shapes_dtypes_and_time_outs():
+    venv = shoulder_bench.make_vec("abduction_4m", 5, seed=0)
+    obs = venv.get_observations()
+    assert set(obs.keys()) == {"policy", "critic"} and obs["policy"].shape == (5, 8)
+    assert obs["policy"].dtype == torch.float32
+    for k in range(100):
+        obs, rew, done, extras = venv.step(torch.zeros(5, 4))
+        assert rew.shape == (5,) and done.shape == (5,) and extras["time_outs"].dtype == torch.bool
+    assert bool(done.all()) and bool(extras["time_outs"].all())  # the 10 s train episodes end together
+    assert "/episode/return" in extras["log"] and extras["log"]["/episode/length"] == 100
+    assert int(venv.episode_length_buf.max()) == 0  # reset
+
+
+def test_auto_reset_starts_a_fresh_trajectory():
+    venv = shoulder_bench.make_vec("abduction_ssp", 2, seed=4)
+    first = venv.targets.copy()
+    for _ in range(100):
+        venv.step(torch.zeros(2, 1))
+    assert not np.allclose(first, venv.targets)
+    assert np.allclose(np.degrees(venv.q), venv.targets[:, 0]) and np.all(venv.frames == 0)
+
+
+def test_crash_in_one_copy_leaves_the_others_running():
+    venv = shoulder_bench.make_vec("abduction_4m", 3, seed=0)
+    venv.step(torch.zeros(3, 4))
+    venv.v[1] = 1e4  # copy 1 blows up
+    _, rew, done, extras = venv.step(torch.zeros(3, 4))
+    assert done.tolist() == [0, 1, 0] and not bool(extras["time_outs"][1])
+    assert float(rew[1]) == pytest.approx(-protocol.CRASH_ERROR_DEG * (100 - 2 + 1))
+    assert extras["log"]["/episode/crash_rate"] == 1.0
+    assert venv.frames.tolist() == [2, 0, 2]
+
+
+def test_bad_batched_action_changes_nothing():
+    venv = shoulder_bench.make_vec("abduction_4m", 2, seed=0)
+    before = venv.observation_array().copy()
+    for bad in (torch.full((2, 4), float("nan")), torch.zeros(3, 4)):
+        with pytest.raises(ValueError):
+            venv.step(bad)
+    assert np.array_equal(before, venv.observation_array())
+
+
+def test_gymnasium_vector_env():
+    envs = gym.make_vec("ShoulderBench/abduction_4m-v0", num_envs=2, vectorization_mode="sync")
+    obs, _ = envs.reset(seed=0)
+    obs, rew, term, trunc, info = envs.step(envs.action_space.sample())
+    assert obs.shape == (2, 8) and rew.shape == (2,)
+
+
+def test_bench_quick(capsys):
+    assert main(["bench", "--quick", "--json"]) == 0
+    out = capsys.readouterr().out
+    assert "bare MuJoCo" in out and '"gym_sim_s_per_s"' in out.splitlines()[-1]
