@@ -23,7 +23,8 @@ MAX_ABS = 1e10  # MuJoCo's mjMAXVAL: beyond it the single env's MuJoCo would war
 
 
 class VecEnv(_RslVecEnv):
-    """`shoulder_bench.make_vec(name, num_envs, device, seed, **options)`; options as for `shoulder_bench.load`."""
+    """`shoulder_bench.make_vec(name, num_envs, device, seed, **options)`; options as for `shoulder_bench.load`, and
+    `trajectory` may also be a list with one target per copy (episodes of a copy then repeat its target)."""
 
     def __init__(self, name: str, num_envs: int, device: str = "cpu", seed=None, trajectory=None,
                  muscle_model: str = DEFAULT_MUSCLE_MODEL, nthread: int = 2, **options):
@@ -31,16 +32,21 @@ class VecEnv(_RslVecEnv):
         if num_envs < 1:
             raise ValueError(f"num_envs must be at least 1, got {num_envs}")
         self.name, self.num_envs, self.device = name, int(num_envs), torch.device(device)
-        self.task = Abduction(muscles, discrete=discrete, trajectory_=_as_trajectory(trajectory), **options)
+        fixed = trajectory if isinstance(trajectory, (list, tuple)) else [trajectory] * self.num_envs
+        if len(fixed) != self.num_envs:
+            raise ValueError(f"{len(fixed)} trajectories for {self.num_envs} environments: give one, or one per copy")
+        self.fixed = [_as_trajectory(t) for t in fixed]
+        self.task = Abduction(muscles, discrete=discrete, trajectory_=self.fixed[0], **options)
         self.muscles, self.discrete, self.n = tuple(muscles), discrete, len(muscles)
         self.num_actions = self.n
         self.cfg = {"task": name, "muscle_model": muscle_model, **options}
         self.law = ForceLaw.load(muscle_model, muscles=self.muscles)
         self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread)
         self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
-        n_frames = (self.task.fixed.frames if self.task.fixed is not None
-                    else int(round(targets.SPLITS[self.task.split]["duration_s"] / protocol.FRAME_S)))
-        self.max_episode_length = n_frames
+        split_frames = int(round(targets.SPLITS[self.task.split]["duration_s"] / protocol.FRAME_S))
+        self.episode_frames = np.array([split_frames if t is None else t.frames for t in self.fixed])
+        self.max_episode_length = int(self.episode_frames.max())
+        n_frames = self.max_episode_length
         self.targets = np.zeros((self.num_envs, n_frames + 1))
         self.target_vel = np.zeros_like(self.targets)
         self.frames = np.zeros(self.num_envs, dtype=np.int64)
@@ -48,16 +54,19 @@ class VecEnv(_RslVecEnv):
         self.act = np.zeros((self.num_envs, self.n))
         self.episode_length_buf = torch.zeros(self.num_envs, dtype=torch.long, device=self.device)
         self._return = np.zeros(self.num_envs)
+        self._finished: list[float] = []
         self._abs_err = np.zeros(self.num_envs)
         self._reset(np.arange(self.num_envs))
 
     # --- episodes ---------------------------------------------------------------------------------------------------
     def _reset(self, idx: np.ndarray) -> None:
         for i in idx:
-            tr = self.task.fixed if self.task.fixed is not None else targets.random_trajectory(self.rngs[i],
-                                                                                              self.task.split)
+            tr = self.fixed[i] if self.fixed[i] is not None else targets.random_trajectory(self.rngs[i],
+                                                                                          self.task.split)
             self.targets[i, :len(tr.angle_deg)] = tr.angle_deg
+            self.targets[i, len(tr.angle_deg):] = tr.angle_deg[-1]
             self.target_vel[i, :len(tr.angle_deg)] = tr.velocity_deg_s
+            self.target_vel[i, len(tr.angle_deg):] = 0.0
         start = self.targets[idx, 0]
         self.q[idx] = np.radians(start)
         self.v[idx] = 0.0
@@ -69,7 +78,7 @@ class VecEnv(_RslVecEnv):
 
     def observation_array(self) -> np.ndarray:
         """(N, 4 + n) float64 observations in protocol.OBSERVATION_KEYS order (the TensorDict holds float32 casts)."""
-        k = np.minimum(self.frames + 1, self.max_episode_length)
+        k = np.minimum(self.frames + 1, self.episode_frames)
         rows = np.arange(self.num_envs)
         obs = protocol.observation(np.degrees(self.q), np.degrees(self.v), self.targets[rows, k],
                                    self.target_vel[rows, k], self.act)
@@ -102,13 +111,13 @@ class VecEnv(_RslVecEnv):
         target_now = self.targets[rows, self.frames]
         reward = protocol.reward(angle, target_now, sent, self.task.alpha, self.task.omega_max,
                                  self.task.tracking_only)
-        left = self.max_episode_length - self.frames + 1
+        left = self.episode_frames - self.frames + 1
         reward = np.where(crashed, -protocol.CRASH_ERROR_DEG * left, reward)
         self.last_reward = reward  # float64; the returned tensor is a float32 cast
         self.last_angle_deg, self.last_target_deg, self.last_crashed = angle, target_now, crashed
         self._return += reward
         self._abs_err += np.where(crashed, 0.0, np.abs(angle - target_now))
-        time_out = (self.frames >= self.max_episode_length) & ~crashed
+        time_out = (self.frames >= self.episode_frames) & ~crashed
         done = crashed | time_out
         self.episode_length_buf += 1
         extras = {"time_outs": torch.as_tensor(time_out, device=self.device)}
@@ -118,12 +127,16 @@ class VecEnv(_RslVecEnv):
                              "/episode/length": float(self.frames[finished].mean()),
                              "/episode/mae_deg": float((self._abs_err[finished] / self.frames[finished]).mean()),
                              "/episode/crash_rate": float(crashed[finished].mean())}
-            self.last_finished = {"return": self._return[finished].copy(), "frames": self.frames[finished].copy(),
-                                  "crashed": crashed[finished].copy()}
+            self._finished.extend(self._return[finished].tolist())
             self._reset(finished)
         obs = self._observation()
         return (obs, torch.as_tensor(reward, dtype=torch.float32, device=self.device),
                 torch.as_tensor(done, dtype=torch.long, device=self.device), extras)
+
+    def finished_returns(self) -> list[float]:
+        """Returns of the episodes that ended since the last call."""
+        out, self._finished = self._finished, []
+        return out
 
     def close(self) -> None:
         self.sim.close()

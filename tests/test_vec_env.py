@@ -45,7 +45,7 @@ def test_tensordict_shapes_dtypes_and_time_outs():
     obs = venv.get_observations()
     assert set(obs.keys()) == {"policy", "critic"} and obs["policy"].shape == (5, 8)
     assert obs["policy"].dtype == torch.float32
-    for k in range(100):
+    for _ in range(100):
         obs, rew, done, extras = venv.step(torch.zeros(5, 4))
         assert rew.shape == (5,) and done.shape == (5,) and extras["time_outs"].dtype == torch.bool
     assert bool(done.all()) and bool(extras["time_outs"].all())  # the 10 s train episodes end together

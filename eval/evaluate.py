@@ -1,0 +1,59 @@
+"""Evaluate a policy on target trajectories: MAE and RMSE in degrees, per trajectory and overall, and crashes.
+
+All trajectories run as one batch (`make_vec` with one target per copy). A crash ends that trajectory; its remaining
+frames count with the crash error of 180 deg, so a policy can never look better by crashing.
+"""
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from shoulder_bench import protocol
+from shoulder_bench.trajectory import Trajectory, load_csv, load_test_set
+
+
+def trajectories_for(spec: str) -> list[Trajectory]:
+    """"test" (the fixed 100), "combing" (synthetic, when shipped) or a CSV path."""
+    if spec == "test":
+        return load_test_set()
+    if spec == "combing":
+        from shoulder_bench.trajectory import combing
+
+        return [combing()]
+    return load_csv(spec)
+
+
+def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: str | None = None) -> dict:
+    """Roll out `policy` (float32 obs (B, 4 + n) -> actions) greedily on every trajectory; return the metrics."""
+    import shoulder_bench
+
+    options = {} if muscle_model is None else {"muscle_model": muscle_model}
+    venv = shoulder_bench.make_vec(task, len(trajectories), seed=0, trajectory=list(trajectories), **options)
+    n = len(trajectories)
+    frames = venv.episode_frames.copy()
+    err = np.full((n, int(frames.max())), np.nan)
+    crashed = np.zeros(n, dtype=bool)
+    active = np.ones(n, dtype=bool)
+    obs = venv.get_observations()["policy"]
+    with torch.inference_mode():
+        for k in range(int(frames.max())):
+            action = policy(obs)
+            obs, _, done, _ = venv.step(action)
+            obs = obs["policy"]
+            e = np.abs(venv.last_angle_deg - venv.last_target_deg)
+            now_crashed = active & venv.last_crashed
+            err[active & ~now_crashed, k] = e[active & ~now_crashed]
+            for i in np.flatnonzero(now_crashed):
+                err[i, k:frames[i]] = protocol.CRASH_ERROR_DEG
+            crashed |= now_crashed
+            active &= ~done.numpy().astype(bool)
+            if not active.any():
+                break
+    venv.close()
+    per_mae = np.array([np.nanmean(err[i, :frames[i]]) for i in range(n)])
+    per_rmse = np.array([np.sqrt(np.nanmean(err[i, :frames[i]] ** 2)) for i in range(n)])
+    flat = np.concatenate([err[i, :frames[i]] for i in range(n)])
+    return {"mae_deg": float(np.mean(flat)), "rmse_deg": float(np.sqrt(np.mean(flat ** 2))),
+            "n_trajectories": n, "crashes": int(crashed.sum()), "frames": int(frames.sum()),
+            "per_trajectory": {"mae_deg": per_mae.round(4).tolist(), "rmse_deg": per_rmse.round(4).tolist(),
+                               "crashed": crashed.tolist()}}

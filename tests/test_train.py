@@ -1,0 +1,99 @@
+"""Training on tiny budgets: runs write their folder, resume after a kill, reject bad checkpoints; eval works."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import torch
+
+from shoulder_bench.cli import main
+from shoulder_bench.cli_train import train
+from shoulder_bench.train.policy import load_policy
+
+TINY = {"num_envs": 16, "steps_per_env": 8, "checkpoint_every": 1}
+
+
+def _config(tmp_path, **extra):
+    p = tmp_path / "cfg.json"
+    p.write_text(json.dumps({**TINY, **extra}))
+    return p
+
+
+def test_ppo_tiny_run_writes_its_folder(tmp_path):
+    out = tmp_path / "run"
+    m = train("abduction_4m", "ppo", frames=512, out=out, config=_config(tmp_path), eval_every=256)
+    for name in ("config.json", "checkpoint.pt", "policy.pt", "metrics.json"):
+        assert (out / name).exists(), name
+    assert any((out / "tb").iterdir())
+    saved = json.loads((out / "metrics.json").read_text())
+    assert saved["frames"] == 512 and np.isfinite(saved["mae_deg"]) and np.isfinite(saved["rmse_deg"])
+    assert saved["n_trajectories"] == 100 and m["crashes"] == saved["crashes"]
+    policy, meta = load_policy(str(out))
+    a = policy(torch.zeros(3, 8))
+    assert a.shape == (3, 4) and float(a.detach().abs().max()) <= 0.01 and meta["task"] == "abduction_4m"
+
+
+def test_existing_run_is_not_overwritten(tmp_path):
+    out = tmp_path / "run"
+    train("abduction_ssp", "ppo", frames=128, out=out, config=_config(tmp_path), eval_every=10**9)
+    with pytest.raises(ValueError, match="finished run"):
+        train("abduction_ssp", "ppo", frames=128, out=out, config=_config(tmp_path))
+
+
+def test_kill_and_resume_ends_with_the_same_frames(tmp_path):
+    cfg = _config(tmp_path)
+    full = tmp_path / "full"
+    train("abduction_ssp", "ppo", frames=2048, out=full, config=cfg, eval_every=10**9)
+    killed = tmp_path / "killed"
+    cmd = [sys.executable, "-m", "shoulder_bench.cli", "train", "--task", "abduction_ssp", "--algo", "ppo",
+           "--frames", "2048", "--out", str(killed), "--config", str(cfg), "--eval-every", "1000000000"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    while not (killed / "checkpoint.pt").exists() and time.time() < deadline:
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    before = torch.load(killed / "checkpoint.pt", weights_only=False)["frames"]
+    assert 0 < before <= 2048 and not (killed / "metrics.json").exists()
+    assert main(["train", "--task", "abduction_ssp", "--algo", "ppo", "--frames", "2048", "--out", str(killed),
+                 "--config", str(cfg), "--resume", "--eval-every", "1000000000"]) == 0
+    a, b = json.loads((full / "metrics.json").read_text()), json.loads((killed / "metrics.json").read_text())
+    assert a["frames"] == b["frames"] == 2048
+
+
+def test_corrupt_or_mismatched_checkpoint_names_the_file(tmp_path, capsys):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "checkpoint.pt").write_bytes(b"garbage")
+    with pytest.raises(ValueError, match=r"checkpoint.pt.*corrupt"):
+        train("abduction_ssp", "ppo", frames=128, out=out, config=_config(tmp_path), resume=True)
+    other = tmp_path / "other"
+    train("abduction_ssp", "ppo", frames=128, out=other, config=_config(tmp_path), eval_every=10**9)
+    (other / "metrics.json").unlink()
+    with pytest.raises(ValueError, match=r"checkpoint.pt.*ppo run on abduction_ssp"):
+        train("abduction_4m", "ppo", frames=256, out=other, config=_config(tmp_path), resume=True)
+    bad_policy = tmp_path / "p.pt"
+    bad_policy.write_bytes(b"nope")
+    assert main(["eval", "--policy", str(bad_policy)]) == 2
+    assert "p.pt" in capsys.readouterr().err
+
+
+def test_wrong_algo_for_task_and_unknown_config_field(tmp_path):
+    with pytest.raises(ValueError, match="abduction_4m"):
+        train("abduction_ssp_discrete", "ppo", frames=10)
+    with pytest.raises(ValueError, match="unknown field"):
+        train("abduction_ssp", "ppo", frames=10, out=tmp_path / "x", config=_config(tmp_path, lr=1))
+
+
+def test_eval_command_json(tmp_path, capsys):
+    out = tmp_path / "run"
+    train("abduction_ssp", "ppo", frames=128, out=out, config=_config(tmp_path), eval_every=10**9)
+    csv = tmp_path / "t.csv"
+    csv.write_text("time_s,angle_deg\n0,40\n2,60\n")
+    assert main(["eval", "--policy", str(out / "policy.pt"), "--trajectories", str(csv), "--json"]) == 0
+    last = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert last["n_trajectories"] == 1 and {"mae_deg", "rmse_deg", "crashes", "latency_ms"} <= set(last)

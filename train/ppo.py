@@ -1,0 +1,125 @@
+"""PPO on the batched env with rsl-rl-lib: its `PPO` algorithm and `MLPModel` actor/critic, our loop around them.
+
+The loop is rsl-rl's `OnPolicyRunner.learn` (collect `steps_per_env` steps, compute returns, update) written out so
+the run can log against frames, checkpoint atomically, evaluate on the test set and resume.
+Networks as in the paper: one hidden layer of 256 for one muscle, 3 x 250 for four; ReLU; Adam. The policy acts in
+[-1, 1] per muscle and the env receives that times 0.01 (the +-1 % per frame of the protocol).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+import torch
+from rsl_rl.runners import OnPolicyRunner
+
+from shoulder_bench import protocol
+from shoulder_bench.train.policy import ScaledPolicy
+
+
+@dataclass
+class PPOConfig:
+    num_envs: int = 256
+    steps_per_env: int = 24
+    hidden_dims: list[int] = field(default_factory=list)  # empty: the paper's ([256] or [250, 250, 250])
+    activation: str = "relu"
+    learning_rate: float = 1e-3
+    schedule: str = "adaptive"  # rsl-rl: adapt the learning rate to keep the KL near desired_kl
+    desired_kl: float = 0.01
+    num_learning_epochs: int = 5
+    num_mini_batches: int = 4
+    clip_param: float = 0.2
+    gamma: float = 0.99  # the paper's
+    lam: float = 0.95
+    entropy_coef: float = 0.001
+    value_loss_coef: float = 1.0
+    max_grad_norm: float = 1.0
+    init_std: float = 0.5  # in units of the 1 %/frame limit
+    checkpoint_every: int = 10  # iterations
+
+
+class ScaledActions:
+    """The VecEnv seen by rsl-rl: actions in [-1, 1] become changes of activation within +-0.01."""
+
+    def __init__(self, venv):
+        self.venv = venv
+        for key in ("num_envs", "num_actions", "max_episode_length", "device", "cfg"):
+            setattr(self, key, getattr(venv, key))
+
+    @property
+    def episode_length_buf(self):
+        return self.venv.episode_length_buf
+
+    @episode_length_buf.setter
+    def episode_length_buf(self, value):
+        self.venv.episode_length_buf = value
+
+    def get_observations(self):
+        return self.venv.get_observations()
+
+    def step(self, actions):
+        return self.venv.step(torch.clamp(actions, -1.0, 1.0) * protocol.ACTION_LIMIT)
+
+
+def rsl_config(cfg: PPOConfig, n_muscles: int) -> dict:
+    hidden = cfg.hidden_dims or ([256] if n_muscles == 1 else [250, 250, 250])
+    model = {"class_name": "MLPModel", "hidden_dims": hidden, "activation": cfg.activation, "obs_normalization": True}
+    return {
+        "num_steps_per_env": cfg.steps_per_env, "save_interval": 10**9, "obs_groups": {"actor": ["policy"],
+                                                                                       "critic": ["critic"]},
+        "actor": {**model, "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": cfg.init_std,
+                                                "std_type": "scalar"}},
+        "critic": dict(model),
+        "algorithm": {"class_name": "PPO", "learning_rate": cfg.learning_rate, "schedule": cfg.schedule,
+                      "desired_kl": cfg.desired_kl, "num_learning_epochs": cfg.num_learning_epochs,
+                      "num_mini_batches": cfg.num_mini_batches, "clip_param": cfg.clip_param, "gamma": cfg.gamma,
+                      "lam": cfg.lam, "entropy_coef": cfg.entropy_coef, "value_loss_coef": cfg.value_loss_coef,
+                      "max_grad_norm": cfg.max_grad_norm},
+        "logger": "tensorboard", "check_for_nan": True,
+    }
+
+
+def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval) -> torch.nn.Module:
+    """Train until `run.frames` reaches `frames`; returns the exported (scripted) policy."""
+    env = ScaledActions(venv)
+    runner = OnPolicyRunner(env, rsl_config(cfg, venv.num_actions), log_dir=None, device="cpu")
+    alg = runner.alg
+    if run.checkpoint is not None:
+        alg.load(run.checkpoint["state"]["alg"], None, True)
+        torch.set_rng_state(run.checkpoint["state"]["torch_rng"])
+    obs = env.get_observations()
+    alg.train_mode()
+    per_iteration = venv.num_envs * cfg.steps_per_env
+    iteration, next_eval = 0, evaluate_every(run.frames)
+    while run.frames < frames:
+        t0 = time.perf_counter()
+        with torch.inference_mode():
+            for _ in range(cfg.steps_per_env):
+                obs, rewards, dones, extras = env.step(alg.act(obs))
+                alg.process_env_step(obs, rewards, dones, extras)
+                run.returns.extend(venv.finished_returns())
+            alg.compute_returns(obs)
+        losses = alg.update()
+        iteration += 1
+        dt = time.perf_counter() - t0
+        scalars = {f"loss/{k}": v for k, v in losses.items()}
+        scalars.update({"perf/fps": per_iteration / dt, "policy/std": float(alg.get_policy().output_std.detach().mean()),
+                        "policy/learning_rate": alg.learning_rate,
+                        "train/mean_return": np.mean(run.returns) if run.returns else None})
+        run.advance(per_iteration, scalars)
+        if run.frames >= next_eval or run.frames >= frames:
+            on_eval(export(alg))
+            next_eval = evaluate_every(run.frames)
+        if iteration % cfg.checkpoint_every == 0 or run.frames >= frames:
+            run.save_checkpoint({"alg": alg.save(), "torch_rng": torch.get_rng_state()})
+    return export(alg)
+
+
+def export(alg) -> torch.nn.Module:
+    actor = alg.get_policy().as_jit()
+    return torch.jit.script(ScaledPolicy(torch.jit.script(actor), protocol.ACTION_LIMIT))
+
+
+def config_dict(cfg: PPOConfig) -> dict:
+    return asdict(cfg)
