@@ -55,7 +55,8 @@ def resolve(spec: str) -> Path:
     if path.is_dir():  # a run folder
         path = path / "policy.pt"
     if not path.exists():
-        raise FileNotFoundError(f"policy file {path} does not exist (give a policy.pt, a run folder or pretrained:NAME)")
+        raise FileNotFoundError(f"policy file {path} does not exist (give a policy.pt, a run folder or "
+                                f"pretrained:NAME)")
     return path
 
 

@@ -104,7 +104,8 @@ def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval) -> to
         iteration += 1
         dt = time.perf_counter() - t0
         scalars = {f"loss/{k}": v for k, v in losses.items()}
-        scalars.update({"perf/fps": per_iteration / dt, "policy/std": float(alg.get_policy().output_std.detach().mean()),
+        std = float(alg.get_policy().output_std.detach().mean())
+        scalars.update({"perf/fps": per_iteration / dt, "policy/std": std,
                         "policy/learning_rate": alg.learning_rate,
                         "train/mean_return": np.mean(run.returns) if run.returns else None})
         run.advance(per_iteration, scalars)
