@@ -135,6 +135,24 @@ def write_csv(path: Path | str, trajectories: list[Trajectory]) -> None:
     tmp.replace(path)
 
 
+def combing() -> Trajectory:
+    """SYNTHETIC activity-of-daily-living profile in the spirit of the paper's in-vivo "combing" recording (Bolsterlee
+    2014, not public): 17.5 s, two lifts from 20 deg to about 100 deg with small combing strokes (+-4 deg, 1.25 Hz)
+    while up. It is made up, not measured; results on it are labelled synthetic."""
+    t = np.arange(0.0, 17.5 + 1e-9, FRAME_S)
+    # (start s, end s, from deg, to deg): rest, lift, hold (strokes), lower, rest, lift, hold (strokes), lower
+    moves = [(0.5, 3.0, 20.0, 98.0), (6.5, 9.0, 98.0, 25.0), (9.5, 12.0, 25.0, 98.0), (15.0, 17.5, 98.0, 20.0)]
+    angle = np.full_like(t, 20.0)
+    for t0, t1, a0, a1 in moves:
+        seg = t >= t0
+        angle[seg] = quintic(t[seg] - t0, a0, a1, t1 - t0)[0]
+    for t0, t1 in ((3.0, 6.5), (12.0, 15.0)):  # combing strokes while the arm is up, faded in and out
+        up = (t >= t0) & (t <= t1)
+        fade = np.sin(np.pi * (t[up] - t0) / (t1 - t0))
+        angle[up] += 4.0 * fade * np.sin(2 * np.pi * 1.25 * (t[up] - t0))
+    return from_array(angle, name="combing (synthetic)")
+
+
 def test_set_path() -> Path:
     from importlib.resources import files
 

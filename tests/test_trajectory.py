@@ -81,3 +81,11 @@ def test_bad_csv_names_file_row_and_fix(tmp_path, text, match):
 def test_from_array_rejects_out_of_range():
     with pytest.raises(ValueError, match="range"):
         T.from_array([30, 40, 500])
+
+
+def test_combing_profile_is_synthetic_and_shaped_like_the_paper():
+    c = T.combing()
+    assert "synthetic" in c.name and c.frames == 175
+    assert 95 <= c.angle_deg.max() <= 103 and c.angle_deg.min() >= 19.9
+    up = c.angle_deg > 80
+    assert np.count_nonzero(np.diff(up.astype(int)) == 1) == 2  # two lifts
