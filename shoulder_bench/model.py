@@ -9,7 +9,7 @@ MuJoCo's `mjcb_act_gain` / `mjcb_act_bias` are process-global. Two facts shape t
 
 Per evaluation MuJoCo calls gain then bias for actuator 0, 1, ... in order; the gain call of the first muscle
 evaluates the law for all muscles at once (one compiled kernel call) and the other calls read that result. The
-callbacks run 16 times per actuator and frame (4 RK4 stages x 4 physics steps), so they keep per-model and per-data
+callbacks run 8 times per actuator and frame (4 RK4 stages x 2 physics steps), so they keep per-model and per-data
 state keyed by `id()` (checked against a weak reference) instead of slower attribute look-ups.
 """
 from __future__ import annotations
