@@ -6,7 +6,8 @@ import importlib
 import sys
 
 # modules that provide add_parser(subparsers); a missing optional one is skipped
-COMMANDS = ["shoulder_bench.cli_tasks", "shoulder_bench.bench", "shoulder_bench.cli_train", "shoulder_bench.fem.cli"]
+COMMANDS = ["shoulder_bench.cli_tasks", "shoulder_bench.bench", "shoulder_bench.cli_train", "shoulder_bench.reproduce",
+            "shoulder_bench.fem.cli"]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,80 @@
+"""`shoulder-bench reproduce`: the paper's experiments on our model, several seeds each, as a table next to the
+paper's numbers; `--ship` copies the best seed of each experiment into the package's pretrained agents."""
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+# name -> (task, algo, frames, the paper's (MAE, RMSE) on their FEM model)
+EXPERIMENTS = {
+    "dqn_ssp": ("abduction_ssp_discrete", "dqn", 300_000, (3.70, 5.78)),
+    "ppo_ssp": ("abduction_ssp", "ppo", 1_600_000, (4.00, 5.36)),
+    "ppo_4m": ("abduction_4m", "ppo", 1_600_000, (5.15, 6.64)),
+    "bdq_4m": ("abduction_4m_discrete", "bdq", 500_000, None),
+}
+TABLE = Path("docs/reproduction.md")
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("reproduce", help="the paper's experiments, several seeds each -> table (and pretrained)")
+    p.add_argument("--experiments", nargs="+", default=list(EXPERIMENTS), choices=list(EXPERIMENTS))
+    p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    p.add_argument("--runs", type=Path, default=Path("runs/reproduce"))
+    p.add_argument("--frames-scale", type=float, default=1.0, help="multiply every budget (e.g. 0.01 to smoke-test)")
+    p.add_argument("--table", type=Path, default=TABLE)
+    p.add_argument("--ship", action="store_true", help="copy the best seed of each into the pretrained agents")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from shoulder_bench.cli_train import train
+
+    results = {}
+    for name in args.experiments:
+        task, algo, frames, _ = EXPERIMENTS[name]
+        results[name] = []
+        for seed in args.seeds:
+            out = args.runs / task / algo / str(seed)
+            m = train(task, algo, frames=max(1, int(frames * args.frames_scale)), seed=seed, out=out, resume=True)
+            results[name].append((seed, out, m))
+    text = table(results)
+    args.table.parent.mkdir(parents=True, exist_ok=True)
+    args.table.write_text(text)
+    print(text)
+    if args.ship:
+        ship(results)
+    return 0
+
+
+def table(results: dict) -> str:
+    lines = ["| experiment | task | frames | test MAE (deg) | test RMSE (deg) | crashes | wall (s) "
+             "| frames to 5.15 deg | paper MAE / RMSE |", "|---|---|---|---|---|---|---|---|---|"]
+    for name, runs in results.items():
+        task, algo, _, paper = EXPERIMENTS[name]
+        ms = [m for _, _, m in runs]
+        mae, rmse = np.array([m["mae_deg"] for m in ms]), np.array([m["rmse_deg"] for m in ms])
+        hit = [m.get("frames_to_paper_accuracy") for m in ms]
+        hit_s = ", ".join("–" if h is None else f"{h / 1e6:.2f} M" for h in hit)
+        paper_s = f"{paper[0]:.2f} / {paper[1]:.2f}" if paper else "not run (infeasible for DQN)"
+        lines.append(f"| {name} ({algo.upper()}, {len(ms)} seeds) | `{task}` | {ms[0]['frames']:,} | "
+                     f"{mae.mean():.2f} ± {mae.std():.2f} | {rmse.mean():.2f} ± {rmse.std():.2f} | "
+                     f"{sum(m['crashes'] for m in ms)} | {np.mean([m['wall_s'] for m in ms]):.0f} | {hit_s} | "
+                     f"{paper_s} |")
+    return "\n".join(lines) + "\n"
+
+
+def ship(results: dict) -> None:
+    from shoulder_bench.train.policy import pretrained_dir
+
+    dest = pretrained_dir()
+    dest.mkdir(parents=True, exist_ok=True)
+    for name, runs in results.items():
+        seed, out, m = min(runs, key=lambda r: r[2]["mae_deg"])
+        shutil.copy(out / "policy.pt", dest / f"{name}.pt")
+        record = {"source_run": str(out), "seed": seed, "mae_deg": m["mae_deg"], "rmse_deg": m["rmse_deg"],
+                  "crashes": m["crashes"], "per_trajectory_mae_deg": m["per_trajectory"]["mae_deg"]}
+        (dest / f"{name}.json").write_text(json.dumps(record, indent=1) + "\n")
+        print(f"shipped {name}: seed {seed}, test MAE {m['mae_deg']:.2f} deg")
