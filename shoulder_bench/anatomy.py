@@ -29,16 +29,18 @@ HUMERUS_INERTIA = (0.0129, 0.0122, 0.0024)  # kg m^2 about the COM; x = abductio
 JOINT_RANGE_DEG = (-10.0, 160.0)  # hinge limits; 0 = arm hanging beside the trunk
 
 # Muscle paths: origin (and via) sites fixed to scapula/thorax, an optional wrap over the humeral head with a side
-# site that selects the side the path passes on, and the insertion on the humerus.
+# site that selects the side the path passes on, and the insertion on the humerus. Side sites were chosen on a 0.25 deg
+# scan so that the path never flips sides (tests/test_model.py checks continuity); ld wraps under the head so that
+# above ~110 deg its line rests on the head like the FEM sheet instead of cutting through it.
 PATHS = {
     "ssp": {"fixed": [(-0.0344, -0.0675, 0.0189), (-0.0267, -0.0128, 0.0171)],
-            "wrap_side": (0.0, 0.0, 0.06), "insertion": (0.00256, 0.02593, 0.01063), "bone": "scapula"},
+            "wrap_side": (0.01, 0.0, 0.05), "insertion": (0.00256, 0.02593, 0.01063), "bone": "scapula"},
     "isp": {"fixed": [(-0.070, -0.070, -0.040), (-0.0719, -0.0102, -0.0129)],
             "wrap_side": (-0.06, 0.01, 0.02), "insertion": (-0.00887, 0.02448, 0.00484), "bone": "scapula"},
     "dmi": {"fixed": [(-0.0012, -0.0028, 0.0337), (0.0095, 0.0298, 0.0383)],
             "wrap_side": (0.0, 0.06, 0.03), "insertion": (0.00461, 0.0056, -0.13611), "bone": "scapula"},
     "ld": {"fixed": [(-0.080, -0.160, -0.250), (-0.050, -0.060, -0.130)],
-           "wrap_side": None, "insertion": (0.0105, -0.00653, -0.03415), "bone": "thorax"},
+           "wrap_side": (-0.02, -0.02, -0.06), "insertion": (0.0105, -0.00653, -0.03415), "bone": "thorax"},
 }
 
 # Bone placement (GH frame). Scapula: glenoid just medial of the head, blade running medially and posteriorly.

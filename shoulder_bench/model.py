@@ -28,7 +28,7 @@ if not MODELS_DIR.is_dir():  # source checkout: models/ sits beside the package
 MODEL_PATH = MODELS_DIR / "shoulder.xml"
 SCENE_PATH = MODELS_DIR / "scene.xml"
 JOINT = "abduction"
-DEFAULT_MUSCLE_MODEL = "hill"  # becomes "fem" once the FEM tables ship
+DEFAULT_MUSCLE_MODEL = "fem"  # tables from the thin-shell FEM (docs/fem.md); "hill" is the alternative
 
 _LAWS: dict[int, object] = {}  # law id -> ForceLaw
 _law_ids = itertools.count(1)

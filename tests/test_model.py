@@ -109,3 +109,10 @@ def test_unknown_model_gets_zero_force_not_an_exception():
 
 def test_model_path_is_public():
     assert shoulder_bench.MODEL_PATH.exists() and shoulder_bench.MODEL_PATH.name == "shoulder.xml"
+
+
+def test_moment_arms_are_continuous():
+    """No wrap flips: on a 0.25 deg grid the moment arms change by less than 0.5 mm per step."""
+    fine = np.arange(-10.0, 160.0 + 1e-9, 0.25)
+    for name, r in moment_arms(fine).items():
+        assert np.abs(np.diff(r)).max() < 5e-4, name

@@ -1,0 +1,143 @@
+"""Solve each muscle sheet over the (angle, activation) grid and write the tables the MuJoCo callback reads.
+
+Table `models/muscles/<m>_fem.npz` (format: shoulder_bench.muscle): torque_Nm (K, J) is the FEM joint torque about +x
+(positive = abduction) from the insertion reaction; force_N = torque_Nm / moment_arm_m is the tendon force MuJoCo must
+apply along the MJCF tendon so that its torque equals the FEM torque at grid points. Extra arrays: insertion_force_N
+(K, J, 3), the resultant the muscle exerts on the humerus, and newton_iterations (K, J).
+
+Caching: a table whose meta.input_hash equals the hash of (shell mesh, material, solver settings, grid, code version)
+is not re-solved; only its moment arms and force_N are refreshed from the current MJCF.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from shoulder_bench import anatomy
+from shoulder_bench.fem import CODE_VERSION
+from shoulder_bench.fem.material import Material
+from shoulder_bench.fem.shells import GRID_DEG, build_shell, load_shell, mesh_sha256, save_shell, shell_path
+from shoulder_bench.fem.solver import MuscleProblem, SolverSettings
+
+ACTIVATIONS = np.array([0.0, 0.1, 0.25, 0.5, 0.75, 1.0])
+SMALL_MOMENT_ARM = 0.003  # m; below this |r|, force = torque / r is ill-conditioned: interpolated instead
+NOISE_FORCE_N = 1.0  # |negative tendon force| up to this is solver noise on a slack sheet, clamped to zero
+
+
+def input_hash(shell: dict, material: Material, settings: SolverSettings, grid: dict) -> str:
+    blob = json.dumps({"mesh": mesh_sha256(shell), "material": material.as_dict(), "solver": settings.as_dict(),
+                       "grid": grid, "code_version": CODE_VERSION}, sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
+def grid_dict() -> dict:
+    return {"angle_deg": [float(GRID_DEG[0]), float(GRID_DEG[-1]), float(GRID_DEG[1] - GRID_DEG[0])],
+            "activation": ACTIVATIONS.tolist()}
+
+
+def _cached(path: Path, digest: str) -> dict | None:
+    if not path.exists():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            meta = json.loads(str(z["meta"]))
+            if meta.get("input_hash") != digest:
+                return None
+            return {k: z[k] for k in z.files}
+    except Exception:  # unreadable: rebuild
+        return None
+
+
+def shell_for(muscle: str, coarse: bool, out: Path | None) -> dict:
+    """The full-resolution shell is stored in models/muscles (written if missing or stale); coarse is in memory."""
+    if coarse:
+        return build_shell(muscle, "coarse")
+    shell = build_shell(muscle, "full")
+    path = shell_path(muscle, out)
+    if not path.exists() or mesh_sha256(load_shell(path)) != mesh_sha256(shell):
+        save_shell(shell, path)
+    return shell
+
+
+def solve_table(shell: dict, material: Material, settings: SolverSettings, progress: tqdm | None = None) -> dict:
+    problem = MuscleProblem(shell, material, settings)
+    k, j = len(GRID_DEG), len(ACTIVATIONS)
+    torque, force, iters = np.zeros((k, j)), np.zeros((k, j, 3)), np.zeros((k, j), int)
+    cb = None if progress is None else (lambda: progress.update(1))
+    neighbour = None
+    for c in range(j - 1, -1, -1):  # from a = 1 down: a slack low-activation sweep can restart from the one above
+        a = float(ACTIVATIONS[c])
+        force[:, c], torque[:, c], iters[:, c], xs = problem.sweep(GRID_DEG, a, callback=cb, neighbour=neighbour)
+        neighbour = (a, xs)
+    return {"torque_Nm": torque, "insertion_force_N": force, "newton_iterations": iters,
+            "stalled_solves": np.array(problem.stalled)}
+
+
+def tendon_force(torque: np.ndarray, moment_arm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tendon force for MuJoCo: torque / moment arm where that is well conditioned, so MuJoCo's torque equals the FEM
+    torque there; where |moment arm| < SMALL_MOMENT_ARM or the ratio would be negative (the MJCF line and the FEM sheet
+    cross zero moment arm at slightly different angles: muscles only pull), the force is interpolated in angle from
+    the well-conditioned angles of the same activation. Returns (force, mask of interpolated entries)."""
+    ratio = torque / np.where(np.abs(moment_arm) >= SMALL_MOMENT_ARM, moment_arm, np.inf)[:, None]
+    # passive forces of a slack sheet are zero up to solver noise (a fraction of a newton, either sign): not a conflict
+    good = (np.abs(moment_arm) >= SMALL_MOMENT_ARM)[:, None] & (ratio >= -NOISE_FORCE_N)
+    force = np.empty_like(torque)
+    for j in range(torque.shape[1]):
+        force[:, j] = np.interp(GRID_DEG, GRID_DEG[good[:, j]], ratio[good[:, j], j])
+    return np.maximum(force, 0.0), ~good
+
+
+def write_table(path: Path, muscle: str, fem: dict, meta: dict, moment_arm: np.ndarray) -> dict:
+    torque = fem["torque_Nm"]
+    force, interpolated = tendon_force(torque, moment_arm)
+    mismatch = np.abs(force * moment_arm[:, None] - torque)
+    meta = dict(meta, force_interpolated_deg=GRID_DEG[interpolated.any(axis=1)].tolist(),
+                max_torque_mismatch_Nm=float(mismatch.max()), max_abs_force_N=float(np.max(np.abs(force))))
+    arrays = {"angle_deg": GRID_DEG.astype(float), "activation": ACTIVATIONS.astype(float), "torque_Nm": torque,
+              "moment_arm_m": moment_arm.astype(float), "force_N": force,
+              "insertion_force_N": fem["insertion_force_N"], "newton_iterations": fem["newton_iterations"],
+              "stalled_solves": fem["stalled_solves"],
+              "meta": np.array(json.dumps(meta, sort_keys=True))}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp.npz")
+    np.savez(tmp, **arrays)
+    tmp.replace(path)
+    return meta
+
+
+def build(muscles=anatomy.MUSCLES, coarse: bool = False, out: Path | None = None, material: Material | None = None,
+          settings: SolverSettings | None = None, quiet: bool = False) -> dict[str, dict]:
+    """Build (or reuse) the FEM table of each muscle. Returns {muscle: meta}."""
+    material = material or Material()
+    settings = settings or SolverSettings()
+    from shoulder_bench.model import MODELS_DIR, moment_arms
+
+    folder = Path(out) if out is not None else MODELS_DIR / "muscles"
+    arms = moment_arms(GRID_DEG)
+    grid = grid_dict()
+    result = {}
+    for m in muscles:
+        shell = shell_for(m, coarse, out)
+        digest = input_hash(shell, material, settings, grid)
+        path = folder / f"{m}_fem.npz"
+        fem = _cached(path, digest)
+        t0 = time.perf_counter()
+        cached = fem is not None
+        if fem is None:
+            with tqdm(total=len(GRID_DEG) * len(ACTIVATIONS), desc=f"fem {m}", disable=quiet, leave=True) as bar:
+                fem = solve_table(shell, material, settings, bar)
+            seconds = time.perf_counter() - t0
+        else:
+            seconds = float(json.loads(str(fem["meta"]))["build_seconds"])
+        meta = {"model": "fem", "muscle": m, "mesh_sha256": mesh_sha256(shell), "material": material.as_dict(),
+                "solver": settings.as_dict(), "grid": grid, "tolerance": f"max nodal residual < {settings.tol} F0 "
+                f"({settings.stall_factor * settings.tol} F0 for {int(fem['stalled_solves'])} stalled solves)",
+                "code_version": CODE_VERSION, "input_hash": digest, "resolution": [int(r) for r in shell["resolution"]],
+                "theta_ref_deg": float(shell["theta_ref_deg"]), "build_seconds": round(seconds, 2)}
+        result[m] = dict(write_table(path, m, fem, meta, arms[m]), cached=cached)
+    return result

@@ -1,0 +1,150 @@
+"""Constant-strain-triangle (CST) membrane with fibres: energy, nodal forces and tangent, vectorised over elements.
+
+Each triangle gets a local reference frame (e1 along its fibre, e2 = n x e1) in which its reference edges form the
+2x2 matrix Dm. The deformation gradient is the 3x2 map F = Ds Dm^-1 (Ds: deformed edges), C = F^T F, the fibre
+stretch is lambda = |F e1| = sqrt(C11) and the element energy is
+
+    E_e = A_e h_e [ W_background(C) + W_fibre(lambda, a) ]     (A_e reference area, h_e reference thickness)
+
+The energy density is written once as a function of C = (C11, C22, C12); torch autograd gives its first and second
+derivatives in c (the relaxed co-rotational tangent, with its eigenvalue branches, is error-prone by hand), and the
+chain rule to node positions, which only involves the linear maps F = sum_a x_a B_a and C = F^T F, is written out
+in numpy. The 9x9 element blocks are assembled into a scipy.sparse matrix.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import torch
+
+from shoulder_bench.fem.material import Material, background_energy, fibre_energy
+
+
+@dataclass
+class Membrane:
+    """Reference geometry of a fibre membrane (all arrays per element unless said)."""
+
+    nodes: np.ndarray  # (N, 3) reference positions
+    triangles: np.ndarray  # (T, 3) node indices
+    dm_inv: np.ndarray  # (T, 2, 2)
+    area: np.ndarray  # (T,) reference area
+    thickness: np.ndarray  # (T,) reference thickness
+
+    @classmethod
+    def from_mesh(cls, nodes, triangles, fibres, thickness) -> Membrane:
+        nodes = np.asarray(nodes, float)
+        tri = np.asarray(triangles, np.int64)
+        x0, x1, x2 = (nodes[tri[:, i]] for i in range(3))
+        normal = np.cross(x1 - x0, x2 - x0)
+        area = 0.5 * np.linalg.norm(normal, axis=1)
+        normal /= (2.0 * area)[:, None]
+        e1 = np.asarray(fibres, float)
+        e1 = e1 - (e1 * normal).sum(1, keepdims=True) * normal  # fibre projected into the element plane
+        e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+        e2 = np.cross(normal, e1)
+        edges = np.stack([x1 - x0, x2 - x0], axis=2)  # (T, 3, 2)
+        dm = np.stack([np.einsum("ti,tij->tj", e1, edges), np.einsum("ti,tij->tj", e2, edges)], axis=1)
+        th = np.broadcast_to(np.asarray(thickness, float), area.shape).copy()
+        return cls(nodes, tri, np.linalg.inv(dm), area, th)
+
+    @property
+    def n_nodes(self) -> int:
+        return len(self.nodes)
+
+
+def _energy_density(c: torch.Tensor, activation: float, material: Material) -> torch.Tensor:
+    """Energy per reference volume from c = (C11, C22, C12) per element (T, 3); C11 is along the fibre."""
+    tr_c = c[:, 0] + c[:, 1]
+    det_c = c[:, 0] * c[:, 1] - c[:, 2] ** 2
+    lam = torch.sqrt(c[:, 0])
+    return background_energy(tr_c, det_c, material.background) + fibre_energy(lam, activation, material.fibre)
+
+
+class ElementKernel:
+    """Energy density W(C11, C22, C12) and its first and second derivatives, batched over elements.
+
+    Autodiff (torch) only sees the 3 components of C per element: one reverse pass for dW/dc and three more for
+    the 3x3 d2W/dc2. The chain rule to node positions (C = F^T F, F = sum_a x_a B_a) is done by hand below; it is
+    exact and costs a few einsums.
+    """
+
+    def __init__(self, material: Material):
+        self.material = material
+
+    def energy(self, c: np.ndarray, activation: float) -> np.ndarray:
+        with torch.no_grad():
+            return _energy_density(torch.from_numpy(c), activation, self.material).numpy()
+
+    def derivatives(self, c: np.ndarray, activation: float, second: bool = True):
+        ct = torch.from_numpy(c).requires_grad_(True)
+        w = _energy_density(ct, activation, self.material)
+        (dw,) = torch.autograd.grad(w.sum(), ct, create_graph=second)
+        if not second:
+            return w.detach().numpy(), dw.detach().numpy(), None
+        rows = [torch.autograd.grad(dw[:, i].sum(), ct, retain_graph=i < 2)[0] for i in range(3)]
+        return w.detach().numpy(), dw.detach().numpy(), torch.stack(rows, dim=1).numpy()
+
+
+def _shape_gradients(mem: Membrane) -> np.ndarray:
+    """B (T, 3 nodes, 2): F = sum_a x_a B_a."""
+    base = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
+    return np.einsum("ak,tkl->tal", base, mem.dm_inv)
+
+
+def _kinematics(mem: Membrane, x: np.ndarray):
+    b = _shape_gradients(mem)
+    f = np.einsum("tai,tak->tik", x[mem.triangles], b)  # (T, 3, 2)
+    f1, f2 = f[:, :, 0], f[:, :, 1]
+    c = np.stack([(f1 * f1).sum(1), (f2 * f2).sum(1), (f1 * f2).sum(1)], axis=1)
+    return b, f1, f2, c
+
+
+def membrane_energy(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float) -> float:
+    _, _, _, c = _kinematics(mem, x)
+    return float(np.sum(mem.area * mem.thickness * kernel.energy(c, activation)))
+
+
+def _element_gradient(b, f1, f2, dw, vol):
+    # dc/dx_a: (T, a, 3 comps of c, 3 coords)
+    dc = np.stack([2.0 * b[:, :, 0, None] * f1[:, None], 2.0 * b[:, :, 1, None] * f2[:, None],
+                   b[:, :, 0, None] * f2[:, None] + b[:, :, 1, None] * f1[:, None]], axis=2)
+    ge = vol[:, None, None] * np.einsum("ti,taid->tad", dw, dc)
+    return dc, ge
+
+
+def membrane_forces(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float) -> np.ndarray:
+    """Gradient of the membrane energy w.r.t. node positions, (N, 3) (minus the internal nodal forces)."""
+    b, f1, f2, c = _kinematics(mem, x)
+    _, dw, _ = kernel.derivatives(c, activation, second=False)
+    _, ge = _element_gradient(b, f1, f2, dw, mem.area * mem.thickness)
+    g = np.zeros((mem.n_nodes, 3))
+    np.add.at(g, mem.triangles.reshape(-1), ge.reshape(-1, 3))
+    return g
+
+
+def _dofs(mem: Membrane) -> np.ndarray:
+    return (3 * mem.triangles[:, :, None] + np.arange(3)).reshape(-1, 9)  # (T, 9)
+
+
+def membrane_tangent(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float):
+    """(energy, gradient (3N,), sparse Hessian (3N x 3N) CSR)."""
+    b, f1, f2, c = _kinematics(mem, x)
+    w, dw, d2w = kernel.derivatives(c, activation)
+    vol = mem.area * mem.thickness
+    dc, ge = _element_gradient(b, f1, f2, dw, vol)
+    # material part: sum_ij W_ij dc_i/dx_a (dc_j/dx_b)^T
+    h_mat = np.einsum("tij,taid,tbje->tadbe", d2w, dc, dc)
+    # geometric part: sum_i W_i d2c_i/dx_a dx_b (a multiple of the 3x3 identity)
+    s = (2.0 * dw[:, 0, None, None] * b[:, :, None, 0] * b[:, None, :, 0]
+         + 2.0 * dw[:, 1, None, None] * b[:, :, None, 1] * b[:, None, :, 1]
+         + dw[:, 2, None, None] * (b[:, :, None, 0] * b[:, None, :, 1] + b[:, :, None, 1] * b[:, None, :, 0]))
+    he = vol[:, None, None, None, None] * (h_mat + s[:, :, None, :, None] * np.eye(3)[None, None, :, None, :])
+    dofs = _dofs(mem)
+    n = 3 * mem.n_nodes
+    g = np.bincount(dofs.ravel(), weights=ge.reshape(-1, 9).ravel(), minlength=n)
+    rows = np.repeat(dofs, 9, axis=1).ravel()
+    cols = np.tile(dofs, (1, 9)).ravel()
+    h = sp.csr_matrix((he.reshape(-1, 9, 9).ravel(), (rows, cols)), shape=(n, n))
+    return float(np.sum(vol * w)), g, h

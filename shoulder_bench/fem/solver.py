@@ -1,0 +1,299 @@
+"""Quasi-static equilibrium of one muscle sheet: Newton with line search, load stepping, contact, regularisation.
+
+Unknowns are the free node positions; origin nodes stay at their reference positions and insertion nodes are carried
+rigidly by the humerus, x = R_x(theta - theta_ref) X. The total energy is
+
+    E(x) = sum_e E_e(x)                                   membrane (fibres + co-rotational background)
+         + 1/2 kappa sum_i A_i max(0, R - |x_i - c|)^2    penalty contact with the humeral head sphere (c, R)
+         + 1/2 k_reg sum_(interior i) |(L (x - X))_i|^2   small out-of-plane regularisation (umbrella Laplacian)
+
+and equilibrium is grad E = 0 on the free dofs. Newton steps solve H p = -g (sparse LU); a singular tangent gets a small
+Levenberg shift; a backtracking line search on the residual norm guards the step. A step in (theta, a) that
+Newton cannot finish is halved (load stepping) until it can.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from shoulder_bench import anatomy
+from shoulder_bench.fem.material import Material
+from shoulder_bench.fem.membrane import ElementKernel, Membrane, membrane_tangent
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    tol: float = 1e-4  # converged when the largest free-node force residual < tol * F0 (N)
+    max_iter: int = 30
+    contact_stiffness: float = 1e11  # kappa, Pa/m: contact pressure per metre of penetration
+    contact_smoothing: float = 1e-5  # delta, m: penetration over which the penalty stiffness ramps up
+    regularisation: float = 0.1  # k_reg = this * E * mean thickness (N/m per node)
+    max_step_deg: float = 5.0  # continuation step in angle
+    max_step_activation: float = 0.25  # continuation step in activation
+    min_step_fraction: float = 1.0 / 64.0
+    stall_factor: float = 10.0  # a stalled line search is accepted when the residual is below this * tol
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+class NoConvergence(RuntimeError):
+    pass
+
+
+def rotation_x(theta_rad: float) -> np.ndarray:
+    c, s = np.cos(theta_rad), np.sin(theta_rad)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def _boundary_nodes(triangles: np.ndarray) -> np.ndarray:
+    e = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
+    uniq, count = np.unique(e, axis=0, return_counts=True)
+    return np.unique(uniq[count == 1])
+
+
+def _umbrella(triangles: np.ndarray, n: int) -> sp.csr_matrix:
+    """Rows x_i - mean(neighbours of i) for interior nodes (zero for any linear field on a regular grid)."""
+    e = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
+    adj = sp.coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n))
+    adj = ((adj + adj.T) > 0).astype(float).tocsr()
+    deg = np.asarray(adj.sum(1)).ravel()
+    lap = sp.identity(n) - sp.diags(1.0 / deg) @ adj
+    interior = np.setdiff1d(np.arange(n), _boundary_nodes(triangles))
+    return lap.tocsr()[interior]
+
+
+def _harmonic_weight(triangles, n, origin, insertion) -> np.ndarray:
+    """0 at the origin nodes, 1 at the insertion nodes, graph-harmonic in between (used by the predictor)."""
+    e = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
+    adj = sp.coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n))
+    adj = ((adj + adj.T) > 0).astype(float).tocsr()
+    lap = (sp.diags(np.asarray(adj.sum(1)).ravel()) - adj).tocsr()
+    w = np.zeros(n)
+    w[insertion] = 1.0
+    fixed = np.union1d(origin, insertion)
+    free = np.setdiff1d(np.arange(n), fixed)
+    w[free] = spla.spsolve(lap[free][:, free].tocsc(), -lap[free][:, fixed] @ w[fixed])
+    return w
+
+
+class MuscleProblem:
+    """One muscle sheet, ready to solve at any (theta, activation)."""
+
+    def __init__(self, shell: dict, material: Material | None = None, settings: SolverSettings | None = None,
+                 f0: float | None = None):
+        material = material or Material()
+        settings = settings or SolverSettings()
+        self.shell = shell
+        self.material = material
+        self.settings = settings
+        self.mem = Membrane.from_mesh(shell["nodes"], shell["triangles"], shell["fibres"], shell["thickness"])
+        self.kernel = ElementKernel(material)
+        n = self.mem.n_nodes
+        self.X = self.mem.nodes.copy()
+        self.theta_ref = float(shell["theta_ref_deg"])
+        self.origin = np.asarray(shell["origin_nodes"], np.int64)
+        self.insertion = np.asarray(shell["insertion_nodes"], np.int64)
+        fixed = np.union1d(self.origin, self.insertion)
+        self.free = np.setdiff1d(np.arange(n), fixed)
+        self.free_dofs = (3 * self.free[:, None] + np.arange(3)).ravel()
+        self.f0 = float(f0 if f0 is not None else anatomy.F0[str(shell["muscle"])])
+        self.node_area = np.bincount(self.mem.triangles.ravel(), np.repeat(self.mem.area / 3.0, 3), minlength=n)
+        k_reg = settings.regularisation * material.background.youngs_modulus * float(np.mean(self.mem.thickness))
+        lap = sp.kron(_umbrella(self.mem.triangles, n), sp.identity(3)).tocsr()
+        self.reg_matrix = (k_reg * (lap.T @ lap)).tocsr()
+        self.weight = _harmonic_weight(self.mem.triangles, n, self.origin, self.insertion)
+        self.centre = np.zeros(3)
+        self.radius = anatomy.HUMERAL_HEAD_RADIUS
+        self.stalled = 0  # solves accepted at stall_factor * tol (reported in the table meta)
+
+    # -- energy -----------------------------------------------------------------------------------------------
+    def _contact(self, x: np.ndarray):
+        """C2 penalty: e(g) = kappa A g^3 / (6 delta) for penetration g < delta, quadratic beyond.
+
+        The cubic start keeps the tangent continuous when a node touches the head, so Newton does not chatter
+        between contact and no contact.
+        """
+        d = x - self.centre
+        r = np.linalg.norm(d, axis=1)
+        gap = np.maximum(self.radius - r, 0.0)
+        k = self.settings.contact_stiffness * self.node_area
+        dl = self.settings.contact_smoothing
+        small = gap < dl
+        e_n = np.where(small, k * gap**3 / (6 * dl), k * (dl**2 / 6 + dl * (gap - dl) / 2 + (gap - dl) ** 2 / 2))
+        de = np.where(small, k * gap**2 / (2 * dl), k * (dl / 2 + gap - dl))
+        d2e = np.where(small, k * gap / dl, k)
+        nrm = d / np.maximum(r, 1e-12)[:, None]
+        g = -de[:, None] * nrm
+        nn = nrm[:, :, None] * nrm[:, None, :]
+        blocks = d2e[:, None, None] * nn - (de / np.maximum(r, 1e-12))[:, None, None] * (np.eye(3) - nn)
+        return float(e_n.sum()), g.ravel(), blocks
+
+    def energy_gradient_hessian(self, x: np.ndarray, activation: float):
+        e, g, h = membrane_tangent(self.mem, self.kernel, x, activation)
+        u = (x - self.X).ravel()
+        ru = self.reg_matrix @ u
+        e += 0.5 * float(u @ ru)
+        g = g + ru
+        ec, gc, blocks = self._contact(x)
+        n = self.mem.n_nodes
+        rows = (3 * np.arange(n)[:, None, None] + np.arange(3)[None, :, None]).repeat(3, axis=2)
+        cols = rows.transpose(0, 2, 1)
+        hc = sp.csr_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(3 * n, 3 * n))
+        return e + ec, g + gc, (h + self.reg_matrix + hc).tocsr()
+
+    def energy(self, x: np.ndarray, activation: float) -> float:
+        from shoulder_bench.fem.membrane import membrane_energy
+
+        u = (x - self.X).ravel()
+        return membrane_energy(self.mem, self.kernel, x, activation) + 0.5 * float(u @ (self.reg_matrix @ u)) \
+            + self._contact(x)[0]
+
+    # -- boundary conditions and predictor -------------------------------------------------------------------------
+    def insertion_positions(self, theta_deg: float) -> np.ndarray:
+        return self.X[self.insertion] @ rotation_x(np.radians(theta_deg - self.theta_ref)).T
+
+    def predict(self, x: np.ndarray, theta_from: float, theta_to: float) -> np.ndarray:
+        """Rotate each node about +x by its harmonic weight times the angle change (exact at both ends)."""
+        dt = np.radians(theta_to - theta_from) * self.weight
+        c, s = np.cos(dt), np.sin(dt)
+        y = x.copy()
+        y[:, 1] = c * x[:, 1] - s * x[:, 2]
+        y[:, 2] = s * x[:, 1] + c * x[:, 2]
+        y[self.origin] = self.X[self.origin]
+        y[self.insertion] = self.insertion_positions(theta_to)
+        return y
+
+    # -- Newton ------------------------------------------------------------------------------------------------------
+    def gradient(self, x: np.ndarray, activation: float) -> np.ndarray:
+        from shoulder_bench.fem.membrane import membrane_forces
+
+        u = (x - self.X).ravel()
+        return membrane_forces(self.mem, self.kernel, x, activation).ravel() + self.reg_matrix @ u + self._contact(x)[1]
+
+    def newton(self, x: np.ndarray, activation: float) -> tuple[np.ndarray, int]:
+        """Solve grad E = 0 for the free nodes from x (fixed nodes already placed). Returns (x, iterations).
+
+        The line search uses the residual norm, not the energy: on the descending limb of the active force-length
+        curve (lambda > ~1.09 at a = 1) the fibre tangent is negative and the uniform solution is a saddle of E that
+        an energy-decreasing method would leave for a mesh-dependent localised one; residual Newton with continuation
+        follows the uniform branch, as ArtiSynth's quasi-static solver does.
+        """
+        s = self.settings
+        tol = s.tol * self.f0
+        x = x.copy()
+        fd = self.free_dofs
+        g = self.gradient(x, activation)
+        r = g[fd]
+        for it in range(s.max_iter + 1):
+            rn = float(np.linalg.norm(r))
+            if np.max(np.abs(r)) < tol:
+                return x, it
+            if it == s.max_iter:
+                break
+            e, _, h = self.energy_gradient_hessian(x, activation)
+            hff = h[fd][:, fd].tocsc()
+            diag_scale = float(np.mean(np.abs(hff.diagonal())))
+            step = None
+            for shift in (0.0, 1e-6, 1e-4, 1e-2, 1.0):  # Levenberg shifts (fractions of the mean diagonal)
+                a = hff if shift == 0.0 else hff + shift * diag_scale * sp.identity(len(fd), format="csc")
+                try:
+                    p = -spla.spsolve(a, r)
+                except RuntimeError:
+                    continue
+                if not np.all(np.isfinite(p)):
+                    continue
+                step = self._line_search(x, p, r, rn, e, activation)
+                if step is not None:
+                    break
+            if step is None:
+                if np.max(np.abs(r)) < s.stall_factor * tol:
+                    self.stalled += 1  # kinks of the law (passive onset at lambda = 1, wrinkling) stall Newton
+                    return x, it
+                raise NoConvergence(f"line search failed (residual {np.max(np.abs(r)):.3g} N)")
+            xt, rt = step
+            x, r = xt, rt
+        raise NoConvergence(f"no convergence in {s.max_iter} iterations (residual {np.max(np.abs(r)):.3g} N)")
+
+    def _line_search(self, x, p, r, rn, e, activation):
+        """Backtrack on p until the residual norm or the energy (Armijo) decreases; None if neither does."""
+        fd = self.free_dofs
+        t, slope = 1.0, float(r @ p)
+        while t >= 1e-3:
+            xt = x.copy()
+            xt.reshape(-1)[fd] += t * p
+            rt = self.gradient(xt, activation)[fd]
+            if np.linalg.norm(rt) <= (1.0 - 1e-4 * t) * rn:
+                return xt, rt
+            if slope < 0.0 and self.energy(xt, activation) <= e + 1e-4 * t * slope:
+                return xt, rt  # energy descent also counts: contact and wrinkling switches can raise the residual
+            t *= 0.5
+        return None
+
+    def step(self, x: np.ndarray, state: tuple[float, float], target: tuple[float, float]):
+        """Move from a converged (x, (theta, a)) to target, halving substeps on failure. Returns (x, newton its)."""
+        s = self.settings
+        th0, a0 = state
+        th1, a1 = target
+        n = max(1, int(np.ceil(max(abs(th1 - th0) / s.max_step_deg, abs(a1 - a0) / s.max_step_activation) - 1e-9)))
+        frac, done, its = 1.0 / n, 0.0, 0
+        while done < 1.0 - 1e-12:
+            f = min(frac, 1.0 - done)
+            tha = th0 + done * (th1 - th0)
+            thb, ab = th0 + (done + f) * (th1 - th0), a0 + (done + f) * (a1 - a0)
+            try:
+                xn, k = self.newton(self.predict(x, tha, thb), ab)
+            except NoConvergence:
+                frac = f / 2.0
+                if frac < s.min_step_fraction / n:
+                    raise
+                continue
+            x, done, its = xn, done + f, its + k
+        return x, its
+
+    # -- reduction -------------------------------------------------------------------------------------------------
+    def insertion_reaction(self, x: np.ndarray, activation: float) -> tuple[np.ndarray, float]:
+        """(force the muscle exerts on the humerus at the insertion (3,), torque about +x, N m).
+
+        Contact forces from the head sphere are radial through the joint centre, so they add no torque.
+        """
+        _, g, _ = membrane_tangent(self.mem, self.kernel, x, activation)
+        u = (x - self.X).ravel()
+        g = (g + self.reg_matrix @ u).reshape(-1, 3)
+        f = -g[self.insertion]
+        torque = np.cross(x[self.insertion], f)[:, 0].sum()
+        return f.sum(0), float(torque)
+
+    def sweep(self, thetas: np.ndarray, activation: float, callback=None, neighbour=None):
+        """Solve at every angle of `thetas` for one activation, by continuation from the stress-free reference.
+
+        Ramps the activation at theta_ref, then walks up and down in angle. Where that path fails (slack sheets at
+        low activation stall Newton), it restarts from `neighbour` = (activation', solutions at activation') by
+        stepping the activation at fixed angle. Returns (forces (K, 3), torques (K,), Newton iterations (K,),
+        solutions (K, N, 3)).
+        """
+        thetas = np.asarray(thetas, float)
+        k = len(thetas)
+        forces, torques, iters = np.zeros((k, 3)), np.zeros(k), np.zeros(k, int)
+        xs = np.zeros((k, self.mem.n_nodes, 3))
+        x0, _ = self.step(self.X.copy(), (self.theta_ref, 0.0), (self.theta_ref, activation))
+        for order in (np.where(thetas >= self.theta_ref)[0], np.where(thetas < self.theta_ref)[0][::-1]):
+            order = order[np.argsort(np.abs(thetas[order] - self.theta_ref), kind="stable")]
+            x, th = x0, self.theta_ref
+            for i in order:
+                try:
+                    x, its = self.step(x, (th, activation), (thetas[i], activation))
+                except NoConvergence:
+                    if neighbour is None:
+                        raise
+                    a_n, x_n = neighbour
+                    x, its = self.step(x_n[i], (thetas[i], a_n), (thetas[i], activation))
+                th = thetas[i]
+                forces[i], torques[i] = self.insertion_reaction(x, activation)
+                iters[i], xs[i] = its, x
+                if callback is not None:
+                    callback()
+        return forces, torques, iters, xs
