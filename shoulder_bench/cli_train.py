@@ -58,6 +58,18 @@ def load_config(cls, path: Path | None, **defaults):
     return dataclasses.replace(cfg, **overrides)
 
 
+def _dqn_config(task: str, path: Path | None):
+    from shoulder_bench.train.dqn import DQNConfig, config_for
+
+    base = config_for(task)
+    if path is None:
+        return base
+    over = load_config(DQNConfig, path)  # validates the field names
+    changed = {f.name: getattr(over, f.name) for f in dataclasses.fields(DQNConfig)
+               if getattr(over, f.name) != getattr(DQNConfig(), f.name)}
+    return dataclasses.replace(base, **changed)
+
+
 def check_task(task: str, algo: str) -> None:
     from shoulder_bench.tasks import TASKS, _check
 
@@ -69,7 +81,7 @@ def check_task(task: str, algo: str) -> None:
         raise ValueError(f"--algo {algo} needs {want}; {task} is not. Valid: {', '.join(valid)}")
 
 
-DEFAULT_FRAMES = {"ppo": 1_600_000, "dqn": 300_000, "bdq": 500_000}
+DEFAULT_FRAMES = {"ppo": 1_600_000, "dqn": 200_000, "bdq": 500_000}
 
 
 def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: Path | None = None,
@@ -85,7 +97,7 @@ def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: P
 
     check_task(task, algo)
     module, cls = _algo_module(algo)
-    cfg = load_config(cls, config, **({"branching": algo == "bdq"} if algo != "ppo" else {}))
+    cfg = load_config(cls, config) if algo == "ppo" else _dqn_config(task, config)
     frames = frames or DEFAULT_FRAMES[algo]
     muscle_model = muscle_model or DEFAULT_MUSCLE_MODEL
     out = out or Path("runs") / task / algo / str(seed)

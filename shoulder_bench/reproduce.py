@@ -10,7 +10,7 @@ import numpy as np
 
 # name -> (task, algo, frames, the paper's (MAE, RMSE) on their FEM model)
 EXPERIMENTS = {
-    "dqn_ssp": ("abduction_ssp_discrete", "dqn", 300_000, (3.70, 5.78)),
+    "dqn_ssp": ("abduction_ssp_discrete", "dqn", 200_000, (3.70, 5.78)),
     "ppo_ssp": ("abduction_ssp", "ppo", 1_600_000, (4.00, 5.36)),
     "ppo_4m": ("abduction_4m", "ppo", 1_600_000, (5.15, 6.64)),
     "bdq_4m": ("abduction_4m_discrete", "bdq", 500_000, None),

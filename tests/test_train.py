@@ -97,3 +97,19 @@ def test_eval_command_json(tmp_path, capsys):
     assert main(["eval", "--policy", str(out / "policy.pt"), "--trajectories", str(csv), "--json"]) == 0
     last = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert last["n_trajectories"] == 1 and {"mae_deg", "rmse_deg", "crashes", "latency_ms"} <= set(last)
+
+
+@pytest.mark.parametrize("task,algo", [("abduction_ssp_discrete", "dqn"), ("abduction_4m_discrete", "bdq")])
+def test_value_based_tiny_run_and_resume(tmp_path, task, algo):
+    cfg = tmp_path / "dqn.json"
+    cfg.write_text(json.dumps({"num_envs": 8, "learning_starts": 400, "batch_size": 64, "log_every": 400,
+                               "checkpoint_every": 800}))
+    out = tmp_path / "run"
+    m = train(task, algo, frames=1600, out=out, config=cfg, eval_every=800)
+    assert m["frames"] == 1600 and np.isfinite(m["mae_deg"])
+    policy, meta = load_policy(str(out))
+    levels = policy(torch.zeros(2, 4 + (4 if "4m" in task else 1)))
+    assert levels.dtype == torch.int64 and int(levels.min()) >= 0 and int(levels.max()) <= 20
+    (out / "metrics.json").unlink()  # as if killed after the last checkpoint: resume to a larger budget
+    m2 = train(task, algo, frames=2400, out=out, config=cfg, resume=True, eval_every=10**9)
+    assert m2["frames"] == 2400

@@ -79,7 +79,8 @@ class Run:
                 self.writer.add_scalar(key, float(value), self.frames)
         if self.bar is not None:
             self.bar.update(frames)
-            post = {"fps": f"{scalars.get('perf/fps', 0):,.0f}"}
+            self._fps = scalars.get("perf/fps", getattr(self, "_fps", 0.0))
+            post = {"fps": f"{self._fps:,.0f}"}
             if self.returns:
                 post["reward"] = f"{sum(self.returns) / len(self.returns):.1f}"
             self.bar.set_postfix(post)

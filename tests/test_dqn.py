@@ -1,0 +1,135 @@
+"""Double DQN / branching DQN (train/dqn.py): tiny training runs, the branching target, checkpoints, export."""
+import io
+
+import numpy as np
+import pytest
+import torch
+
+import shoulder_bench
+from shoulder_bench.train.dqn import DQNAgent, DQNConfig, branching_target
+
+TINY = dict(num_envs=8, buffer_size=5_000, batch_size=32, learning_starts=400, eps_decay_frames=2_000,
+            updates_per_step=1.0, target_update_every=20, hidden=(32,), log_every=400, checkpoint_every=800)
+TASKS = [("abduction_ssp_discrete", False), ("abduction_4m_discrete", True)]
+
+
+@pytest.fixture(autouse=True)
+def one_thread():  # tiny networks: threads only add overhead (and contention on a shared machine)
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(before)
+
+
+def make_env(task, seed=0):
+    return shoulder_bench.make_vec(task, TINY["num_envs"], seed=seed, nthread=1)
+
+
+def make(task, branching, seed=0, **over):
+    cfg = DQNConfig(branching=branching, seed=seed, **{**TINY, **over})
+    env = make_env(task, seed)
+    return DQNAgent(cfg, env.get_observations()["policy"].shape[1], env.n), env
+
+
+@pytest.mark.parametrize("task,branching", TASKS)
+def test_tiny_training_is_finite_and_counts_frames(task, branching):
+    agent, env = make(task, branching)
+    logs, checkpoints = [], []
+    agent.learn(env, 1_602, on_log=logs.append, on_checkpoint=checkpoints.append)
+    assert agent.frames == 1_608  # whole vec steps of 8 copies: the first multiple of 8 >= 1602
+    assert agent.grad_steps > 0 and len(agent.buffer) > 0
+    assert [d["frames"] for d in logs] == [400, 800, 1_200, 1_600] and checkpoints == [800, 1_600]
+    assert {"frames", "fps", "mean_return", "loss", "epsilon", "mae_deg"} <= set(logs[-1])
+    assert np.isfinite(logs[-1]["loss"]) and np.isfinite(logs[-1]["q_mean"]) and np.isfinite(logs[-1]["mean_return"])
+    obs = env.get_observations()["policy"]
+    assert torch.isfinite(agent.q(obs)).all()
+    levels = agent.act(obs.numpy(), explore=True)
+    assert levels.shape == (8, env.n) and levels.dtype == np.int64 and levels.min() >= 0 and levels.max() <= 20
+    agent.learn(env, 400)  # continues
+    assert agent.frames == 2_008
+
+
+def test_time_outs_are_not_stored_and_crashes_are_terminal():
+    agent, env = make("abduction_ssp_discrete", False, learning_starts=10**9)  # collection only
+    agent.learn(env, 8 * 100)  # exactly one 100-frame training episode per copy, ending in time-outs
+    assert len(agent.buffer) == 8 * 99 and not agent.buffer.term[:len(agent.buffer)].any()
+
+
+def test_branching_target_by_hand():
+    # B=2 transitions, n=2 branches, 21 levels; only a few entries matter
+    q_online = torch.zeros(2, 2, 21)
+    q_target = torch.full((2, 2, 21), 100.0)
+    q_online[0, 0, 3], q_target[0, 0, 3] = 1.0, 2.0  # branch 0 selects level 3, evaluated at 2
+    q_online[0, 1, 7], q_target[0, 1, 7] = 1.0, -4.0  # branch 1 selects level 7, evaluated at -4
+    q_online[1, 0, 0], q_target[1, 0, 0] = 1.0, 5.0
+    q_online[1, 1, 1], q_target[1, 1, 1] = 1.0, 5.0
+    reward, terminated = torch.tensor([1.0, -3.0]), torch.tensor([False, True])
+    y = branching_target(q_online, q_target, reward, terminated, gamma=0.5)
+    assert torch.allclose(y, torch.tensor([1.0 + 0.5 * (2.0 - 4.0) / 2, -3.0]))
+    # one branch: the Double DQN target (online argmax, target value), not max of the target net
+    y1 = branching_target(q_online[:, :1], q_target[:, :1], reward, torch.tensor([False, False]), gamma=0.5)
+    assert torch.allclose(y1, torch.tensor([1.0 + 0.5 * 2.0, -3.0 + 0.5 * 5.0]))
+
+
+def test_dueling_heads_are_identifiable():
+    agent, _ = make("abduction_4m_discrete", True)
+    obs = torch.randn(3, 8) * 10
+    q = agent.q(obs)
+    z = agent.q.trunk(agent.q.norm(obs))
+    assert q.shape == (3, 4, 21)
+    assert torch.allclose(q.mean(-1), agent.q.value(z).expand(3, 4), atol=1e-5)  # mean_a Q_d = V
+
+
+@pytest.mark.parametrize("task,branching", TASKS)
+def test_state_dict_round_trip_and_deterministic_resume(task, branching):
+    agent, env = make(task, branching)
+    agent.learn(env, 800)
+    buf = io.BytesIO()
+    torch.save(agent.state_dict(), buf)
+    obs = env.get_observations()["policy"]
+
+    buf.seek(0)
+    restored = DQNAgent.from_state_dict(torch.load(buf))
+    assert restored.frames == agent.frames == 800 and restored.grad_steps == agent.grad_steps
+    assert np.array_equal(restored.act(obs, explore=False), agent.act(obs, explore=False))
+
+    # resuming from the checkpoint on a fresh env with the same seed is deterministic
+    runs = []
+    for _ in range(2):
+        buf.seek(0)
+        a = DQNAgent.from_state_dict(torch.load(buf))
+        a.learn(make_env(task, seed=7), 400)
+        runs.append(a)
+    assert runs[0].frames == runs[1].frames == 1_200
+    for p, q in zip(runs[0].q.parameters(), runs[1].q.parameters()):
+        assert torch.equal(p, q)
+
+
+def test_learn_in_two_calls_equals_one_call():
+    a, env_a = make("abduction_ssp_discrete", False)
+    a.learn(env_a, 600)
+    a.learn(env_a, 600)
+    b, env_b = make("abduction_ssp_discrete", False)
+    b.learn(env_b, 1_200)
+    assert a.frames == b.frames and a.grad_steps == b.grad_steps
+    for p, q in zip(a.q.parameters(), b.q.parameters()):
+        assert torch.equal(p, q)
+
+
+@pytest.mark.parametrize("task,branching", TASKS)
+def test_exported_policy_matches_greedy_act(task, branching):
+    agent, env = make(task, branching)
+    agent.learn(env, 600)
+    obs = torch.randn(64, 4 + env.n) * torch.tensor([20, 10, 20, 10] + [0.1] * env.n) + torch.tensor(
+        [60.0, 0, 60, 0] + [0.2] * env.n)
+    greedy = agent.act(obs, explore=False)
+    scripted = torch.jit.script(agent.policy())
+    traced = torch.jit.trace(agent.policy(), obs[:2])
+    for module in (agent.policy(), scripted, traced):
+        out = module(obs)
+        assert out.dtype == torch.int64 and out.shape == (64, env.n)
+        assert np.array_equal(out.numpy(), greedy)
+    buf = io.BytesIO()
+    torch.jit.save(scripted, buf)
+    buf.seek(0)
+    assert np.array_equal(torch.jit.load(buf)(obs).numpy(), greedy)
