@@ -32,6 +32,8 @@ def test_ppo_tiny_run_writes_its_folder(tmp_path):
     saved = json.loads((out / "metrics.json").read_text())
     assert saved["frames"] == 512 and np.isfinite(saved["mae_deg"]) and np.isfinite(saved["rmse_deg"])
     assert saved["n_trajectories"] == 100 and m["crashes"] == saved["crashes"]
+    assert main(["plot", "curves", str(out), "--out", str(tmp_path / "curves.png")]) == 0
+    assert (tmp_path / "curves.png").stat().st_size > 10_000
     policy, meta = load_policy(str(out))
     a = policy(torch.zeros(3, 8))
     assert a.shape == (3, 4) and float(a.detach().abs().max()) <= 0.01 and meta["task"] == "abduction_4m"
