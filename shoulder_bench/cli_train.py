@@ -26,7 +26,8 @@ def add_parser(sub) -> None:
     p.add_argument("--eval-every", type=int, default=100_000, help="frames between test-set evaluations")
     p.set_defaults(func=_train)
     p = sub.add_parser("eval", help="evaluate a policy on the test set or a trajectory CSV")
-    p.add_argument("--policy", required=True, help="policy.pt, a run folder, or pretrained:NAME")
+    p.add_argument("--policy", required=True,
+                   help="policy.pt, a run folder, pretrained:NAME, or reference (the model-based controller)")
     p.add_argument("--task", default=None, help="default: the task the policy was trained on")
     p.add_argument("--trajectories", default="test", help="test (the fixed 100), combing, or a CSV file")
     p.add_argument("--json", action="store_true", help="one JSON object on the last line")
@@ -161,7 +162,13 @@ def _eval(args) -> int:
     from shoulder_bench.tasks import TASKS
     from shoulder_bench.train.policy import load_policy
 
-    policy, meta = load_policy(args.policy)
+    if args.policy == "reference":
+        from shoulder_bench.eval.reference import ReferenceController
+
+        task = args.task or "abduction_4m"
+        policy, meta = ReferenceController(task), {"task": task}
+    else:
+        policy, meta = load_policy(args.policy)
     task = args.task or meta["task"]
     trajs = trajectories_for(args.trajectories)
     m = evaluate(policy, task, trajs, muscle_model=meta.get("muscle_model"))
