@@ -158,3 +158,10 @@ def test_gymnasium_options_pass_through():
     env = gym.make("ShoulderBench/abduction_ssp-v0", split="test")
     env.reset(seed=0)
     assert env.unwrapped.task.target.frames == 200
+
+
+def test_gymnasium_rgb_array_render_is_not_blank():
+    env = gym.make("ShoulderBench/abduction_4m-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    img = env.render()
+    assert img.shape == (480, 640, 3) and img.dtype == np.uint8 and img.std() > 10
