@@ -1,0 +1,426 @@
+"""`shoulder-bench render`: a headless video of one episode (mp4, or GIF for READMEs).
+
+The episode runs in the task's own physics (0.1 s frames). A separate *render model* is built from the scene with
+`mujoco.MjSpec`: the same bones and spatial tendons (muscles), no actuators (so the process-global muscle callback is
+never involved), plus a translucent ghost humerus on its own hinge that shows the target angle. Each video frame copies
+the simulated angle (interpolated between frames with a cubic Hermite on angle and velocity, so the video runs in real
+time at any frame rate) into the render model's hinge, sets the ghost's hinge to the target, colours each muscle from
+pale to saturated red by its activation and runs kinematics only (`mj_forward`; the render model is never stepped), so
+the tendons wrap over the humeral head exactly as in the simulation. Text (time, angle, target, activations) is drawn
+with Pillow. The file is written to a temporary name beside `--out` and renamed when complete.
+"""
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco's GL context
+
+CAMERAS = ("front", "back")
+DEFAULT_FPS = {"mp4": 30, "gif": 20}  # GIF frame delays are whole centiseconds: 20 fps = 5 cs, exact real time
+MAX_SIZE = 1920
+PALE = np.array([0.93, 0.80, 0.78, 0.85])  # muscle at activation 0
+SATURATED = np.array([0.90, 0.02, 0.02, 1.0])  # muscle at activation 1
+IDLE = np.array([0.60, 0.60, 0.60, 0.35])  # a muscle the task does not simulate
+GHOST_RGBA = (0.55, 0.85, 1.0, 0.22)
+GHOST_SCALE = 1.03  # slightly larger than the bone: no z-fighting where ghost and arm coincide
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("render", help="render a headless video of one episode (mp4, or --gif)",
+                       description="Render one episode: bones as meshes, muscles coloured by activation, a "
+                                   "translucent ghost arm at the target angle and an overlay with time, angle and "
+                                   "target. Without --policy the PD feedback controller drives the arm.")
+    p.add_argument("--task", default=None,
+                   help="task name (default: the policy's task, else abduction_4m); see `shoulder-bench tasks`")
+    p.add_argument("--policy", default=None,
+                   help="policy.pt, a run folder, pretrained:NAME, or reference (the model-based controller); "
+                        "default: the PD feedback controller")
+    p.add_argument("--trajectory", type=Path, default=None,
+                   help="CSV target (time_s,angle_deg[,trajectory]; the first trajectory is used); default: a "
+                        "random test-split target drawn with --seed")
+    p.add_argument("--out", type=Path, required=True, help="output file (.mp4; .gif with --gif)")
+    p.add_argument("--seconds", type=float, default=None, help="length of the video (default: the whole target)")
+    p.add_argument("--width", type=int, default=640)
+    p.add_argument("--height", type=int, default=480)
+    p.add_argument("--fps", type=int, default=None, help="frames per second (default 30 for mp4, 20 for GIF)")
+    p.add_argument("--gif", action="store_true", help="write an animated GIF instead of an mp4")
+    p.add_argument("--camera", choices=CAMERAS, default="front")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random target")
+    p.set_defaults(func=_render_cmd)
+
+
+def _render_cmd(args) -> int:
+    info = render_video(args.out, task=args.task, policy=args.policy, trajectory=args.trajectory,
+                        seconds=args.seconds, width=args.width, height=args.height, gif=args.gif, fps=args.fps,
+                        camera=args.camera, seed=args.seed, progress=True)
+    print(f"wrote {info['path']}: {info['frames']} frames, {info['width']}x{info['height']} at {info['fps']} fps "
+          f"({info['seconds']:.1f} s of {info['task']} with {info['controller']}; MAE {info['mae_deg']:.2f} deg"
+          f"{', CRASHED' if info['crashed'] else ''}); {info['render_fps']:.0f} frames rendered per wall second")
+    return 0
+
+
+# --- inputs -------------------------------------------------------------------------------------------------------
+def _check_out(out: Path | str, gif: bool) -> Path:
+    out = Path(out)
+    if gif and out.suffix.lower() != ".gif":
+        out = out.with_suffix(".gif")
+    elif not gif and out.suffix.lower() != ".mp4":
+        raise ValueError(f"output {out}: an mp4 file must end in .mp4 (or pass --gif for a GIF)")
+    if out.is_dir():
+        raise ValueError(f"output {out} is a directory; give a file name such as {out / ('episode' + out.suffix)}")
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise FileNotFoundError(f"output directory {parent} does not exist; create it (mkdir -p {parent}) or "
+                                f"choose another --out")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ValueError(f"output directory {parent} is not writable; choose another --out")
+    return out
+
+
+def _check_task(name: str) -> str:
+    from shoulder_bench.tasks import _check
+
+    try:
+        return _check(name)
+    except KeyError as exc:
+        raise ValueError(exc.args[0]) from None
+
+
+@dataclass
+class _Controller:
+    label: str
+    act: object  # callable(time_step) -> action for env.step
+    muscle_model: str | None = None
+
+
+def _controller(policy: str | None, task: str | None) -> tuple[_Controller, str]:
+    """The controller for `policy` and the task it runs on."""
+    import torch
+
+    from shoulder_bench import protocol
+    from shoulder_bench.tasks import TASKS
+
+    def flat(obs) -> torch.Tensor:
+        x = np.concatenate([np.ravel(obs[k]) for k in protocol.OBSERVATION_KEYS]).astype(np.float32)
+        return torch.from_numpy(x)[None, :]
+
+    if policy is None:
+        from shoulder_bench.controllers import Feedback
+
+        task = _check_task(task or "abduction_4m")
+        muscles, discrete, _ = TASKS[task]
+        fb = Feedback(muscles)
+
+        def act(ts):
+            delta = fb(ts.observation)
+            if discrete:  # nearest of the 21 levels
+                levels = np.rint((delta + protocol.ACTION_LIMIT) / (2 * protocol.ACTION_LIMIT) * (protocol.LEVELS - 1))
+                return np.clip(levels, 0, protocol.LEVELS - 1).astype(np.int64)
+            return delta
+
+        return _Controller("feedback (PD)", act), task
+    if policy == "reference":
+        from shoulder_bench.eval.reference import ReferenceController
+
+        task = _check_task(task or "abduction_4m")
+        module, meta = ReferenceController(task), {"algo": "reference"}
+        label = "reference controller"
+    else:
+        from shoulder_bench.train.policy import load_policy
+
+        module, meta = load_policy(policy)
+        trained = meta.get("task")
+        if task is not None:
+            task = _check_task(task)
+            if trained != task:
+                raise ValueError(f"policy {policy} was trained on {trained!r}, not {task!r}; pass --task {trained} "
+                                 f"or leave --task out")
+        task = _check_task(trained)
+        shown = policy if policy.startswith("pretrained:") else Path(policy).name
+        label = f"{meta.get('algo', 'policy')} ({shown})"
+
+    def act(ts):
+        with torch.inference_mode():
+            a = module(flat(ts.observation))
+        return np.asarray(a.detach().cpu().numpy() if hasattr(a, "detach") else a)
+
+    return _Controller(label, act, meta.get("muscle_model")), task
+
+
+# --- the render model ---------------------------------------------------------------------------------------------
+def build_render_model(width: int, height: int):
+    """(model, ghost hinge qpos address): the scene without actuators plus a translucent ghost humerus."""
+    import mujoco
+
+    from shoulder_bench.model import JOINT, SCENE_PATH
+
+    spec = mujoco.MjSpec.from_file(str(SCENE_PATH))
+    for act in list(spec.actuators):  # visual only: no user actuators, so the muscle callback never runs
+        spec.delete(act)
+    spec.visual.global_.offwidth = max(width, spec.visual.global_.offwidth)
+    spec.visual.global_.offheight = max(height, spec.visual.global_.offheight)
+    humerus = spec.body("humerus")
+    hinge = spec.joint(JOINT)
+    src = next(m for m in spec.meshes if m.name == "humerus")
+    spec.add_mesh(name="ghost_humerus", file=src.file, scale=[GHOST_SCALE * s for s in src.scale])
+    ghost = spec.worldbody.add_body(name="ghost", pos=humerus.pos, quat=humerus.quat)
+    ghost.add_joint(name="ghost_abduction", type=mujoco.mjtJoint.mjJNT_HINGE, axis=hinge.axis, pos=hinge.pos)
+    ghost.add_geom(name="ghost_humerus", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="ghost_humerus",
+                   rgba=GHOST_RGBA, contype=0, conaffinity=0, group=1)
+    model = spec.compile()
+    model.tendon_width[:] = np.maximum(model.tendon_width, 0.006)  # visible at README sizes
+    # software rendering (EGL on CPU): shadow maps cost ~4x the frame and the floor is far below the view anyway
+    model.light_castshadow[:] = 0
+    model.mat_reflectance[:] = 0
+    return model, int(model.jnt_qposadr[model.joint("ghost_abduction").id])
+
+
+def _colour_scale(peak: float) -> float:
+    """Activation shown fully saturated: the smallest of 5 %, 10 %, 20 %, 50 %, 100 % at or above the episode's peak
+    (activations are often a few percent; a fixed 0..1 scale would leave every muscle pale)."""
+    return next((c for c in (0.05, 0.1, 0.2, 0.5) if peak <= c), 1.0)
+
+
+def _hermite(p0, v0, p1, v1, s, h):
+    """Cubic Hermite between (p0, v0) and (p1, v1) over an interval h, at fraction s."""
+    s2, s3 = s * s, s * s * s
+    return ((2 * s3 - 3 * s2 + 1) * p0 + (s3 - 2 * s2 + s) * h * v0 + (-2 * s3 + 3 * s2) * p1
+            + (s3 - s2) * h * v1)
+
+
+class _Overlay:
+    def __init__(self, width: int, height: int, title: str, muscles, scale: float):
+        from PIL import ImageFont
+
+        self.size = max(9, height // 22)
+        self.font = ImageFont.load_default(size=self.size)
+        self.small = ImageFont.load_default(size=max(8, int(self.size * 0.85)))
+        self.title, self.muscles, self.scale = title, muscles, scale
+        self.width, self.height = width, height
+
+    def draw(self, frame: np.ndarray, t: float, angle: float, target: float, acts, crashed: bool) -> np.ndarray:
+        from PIL import Image, ImageDraw
+
+        img = Image.fromarray(frame)
+        d = ImageDraw.Draw(img, "RGBA")
+        pad, s = max(3, self.size // 3), self.size
+        # bottom band: time, angle, target
+        text = f"t {t:5.2f} s   angle {angle:6.1f}°   target {target:6.1f}°"
+        if crashed:
+            text += "   CRASHED"
+        d.rectangle([0, self.height - s - 2 * pad, self.width, self.height], fill=(0, 0, 0, 150))
+        d.text((pad, self.height - s - pad), text, font=self.font, fill=(255, 255, 255))
+        # top left: what is shown
+        d.text((pad, pad), self.title, font=self.small, fill=(255, 255, 255), stroke_width=1, stroke_fill=(0, 0, 0))
+        # top right: activation bars in the muscles' colours, full bar = the colour scale
+        bar_w, row = max(20, self.width // 8), int(self.small.size * 1.3)
+        x1 = self.width - pad - bar_w
+        label_w = max(self.small.getlength(f"{m} 00.0%") for m in self.muscles)
+        top = pad if self.small.getlength(self.title) + label_w + bar_w + 4 * pad < self.width else pad + row
+        for i, (name, a) in enumerate(zip(self.muscles, acts)):
+            y = top + i * row
+            f = min(float(a) / self.scale, 1.0)
+            rgb = tuple(int(255 * c) for c in (PALE[:3] + f * (SATURATED[:3] - PALE[:3])))
+            d.text((x1 - pad, y), f"{name} {100 * float(a):4.1f}%", font=self.small, fill=(255, 255, 255),
+                   anchor="ra", stroke_width=1, stroke_fill=(0, 0, 0))
+            d.rectangle([x1, y + 1, x1 + bar_w, y + row - 2], fill=(0, 0, 0, 120), outline=(255, 255, 255, 160))
+            d.rectangle([x1, y + 1, x1 + int(round(bar_w * f)), y + row - 2], fill=rgb)
+        y = top + len(self.muscles) * row
+        d.text((x1 + bar_w, y), f"bar = {100 * self.scale:g}%", font=self.small, fill=(220, 220, 220), anchor="ra",
+               stroke_width=1, stroke_fill=(0, 0, 0))
+        return np.asarray(img)
+
+
+# --- writers ------------------------------------------------------------------------------------------------------
+class _Mp4Writer:
+    def __init__(self, path: Path, fps: int):
+        import imageio
+
+        self.w = imageio.get_writer(str(path), format="FFMPEG", fps=fps, codec="libx264", quality=7,
+                                    pixelformat="yuv420p", macro_block_size=2, ffmpeg_log_level="error")
+
+    def append(self, frame):
+        self.w.append_data(frame)
+
+    def close(self):
+        self.w.close()
+
+
+class _GifWriter:
+    """One shared palette (from a sample of the frames plus the muscle colour ramp, no dithering); after the first
+    frame, pixels that did not change are written as the transparent index, so each frame costs little more than
+    what moved (the usual GIF optimisation; Pillow does not do it by itself)."""
+
+    CLEAR = 255  # palette index of "unchanged"
+
+    def __init__(self, path: Path, fps: int):
+        self.path, self.fps, self.frames = path, fps, []
+
+    def append(self, frame):
+        self.frames.append(np.ascontiguousarray(frame))
+
+    def close(self):
+        from PIL import Image
+
+        if not self.frames:
+            return
+        w = self.frames[0].shape[1]
+        ramp = PALE[:3] + np.linspace(0, 1, w)[:, None] * (SATURATED[:3] - PALE[:3])
+        ramp = np.repeat((255 * ramp).astype(np.uint8)[None], 8, axis=0)
+        sample = self.frames[:: max(1, len(self.frames) // 8)] + [ramp]
+        palette = Image.fromarray(np.concatenate(sample, axis=0)).quantize(colors=self.CLEAR,
+                                                                           method=Image.Quantize.MEDIANCUT)
+        indexed = [np.asarray(Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE))
+                   for f in self.frames]
+        images = []
+        for k, idx in enumerate(indexed):
+            if k:
+                idx = np.where(idx == indexed[k - 1], np.uint8(self.CLEAR), idx)
+            img = Image.fromarray(idx, mode="P")
+            img.putpalette(palette.getpalette())
+            images.append(img)
+        images[0].save(self.path, format="GIF", save_all=True, append_images=images[1:], transparency=self.CLEAR,
+                       disposal=1, duration=int(round(1000 / self.fps)), loop=0, optimize=False)
+
+
+# --- the episode --------------------------------------------------------------------------------------------------
+def render_video(out: Path | str, task: str | None = None, policy: str | None = None, trajectory=None,
+                 seconds: float | None = None, width: int = 640, height: int = 480, gif: bool = False,
+                 fps: int | None = None, camera: str = "front", seed: int = 0, progress: bool = False) -> dict:
+    """Render one episode to `out` (mp4, or GIF with gif=True); returns what was written and how fast.
+
+    policy: None (PD feedback), "reference", a policy file/run folder or "pretrained:NAME"; trajectory: a CSV path
+    (its first trajectory) or a `Trajectory`; default a random test-split target drawn with `seed`.
+    """
+    import shoulder_bench
+    from shoulder_bench import protocol
+    from shoulder_bench import trajectory as traj_mod
+    from shoulder_bench.tasks import TASKS
+
+    # cheap checks first: nothing is simulated for a bad output, size or camera
+    out = _check_out(out, gif)
+    fmt = "gif" if gif else "mp4"
+    fps = DEFAULT_FPS[fmt] if fps is None else int(fps)
+    if not 1 <= fps <= 120:
+        raise ValueError(f"fps {fps}: choose 1..120")
+    if not (16 <= width <= MAX_SIZE and 16 <= height <= MAX_SIZE):
+        raise ValueError(f"size {width}x{height}: width and height must be within 16..{MAX_SIZE} pixels")
+    if fmt == "mp4" and (width % 2 or height % 2):
+        raise ValueError(f"size {width}x{height}: an mp4 (H.264) needs even width and height")
+    if camera not in CAMERAS:
+        raise ValueError(f"unknown camera {camera!r}; choose one of {', '.join(CAMERAS)}")
+    if seconds is not None and not (np.isfinite(seconds) and seconds > 0):
+        raise ValueError(f"seconds {seconds}: give a positive length in seconds")
+    if task is not None:
+        task = _check_task(task)
+    target = None
+    if trajectory is not None:
+        if isinstance(trajectory, traj_mod.Trajectory):
+            target = trajectory
+        else:
+            if not Path(trajectory).exists():
+                raise FileNotFoundError(f"trajectory file {trajectory} does not exist; give a CSV with columns "
+                                        f"time_s,angle_deg (or leave --trajectory out for a random test target)")
+            target = traj_mod.load_csv(trajectory)[0]
+
+    ctrl, task = _controller(policy, task)
+    muscles = TASKS[task][0]
+    options = {} if ctrl.muscle_model is None else {"muscle_model": ctrl.muscle_model}
+    env = shoulder_bench.load(task, split="test", seed=seed, trajectory=target, **options)
+    ts = env.reset()
+    target = env.task.target
+    physics = env.physics
+    spec_shape, spec_dtype = env.action_spec().shape, env.action_spec().dtype
+
+    h = protocol.FRAME_S
+    duration = target.frames * h
+    seconds = duration if seconds is None else min(float(seconds), duration)
+    n_video = max(1, int(round(seconds * fps)))
+
+    import mujoco
+
+    model, ghost_adr = build_render_model(width, height)
+    data = mujoco.MjData(model)
+    qadr = int(model.jnt_qposadr[model.joint("abduction").id])
+    ten_ids = [model.tendon(m).id for m in muscles]
+    model.tendon_rgba[:] = IDLE
+
+    # simulate first (cheap next to rendering): the colour scale of the activations is then known for the video
+    steps = min(target.frames, int(np.ceil(seconds / h - 1e-9)) + 1)
+    q, v = [float(physics.data.qpos[0])], [float(physics.data.qvel[0])]
+    acts: list[np.ndarray] = []  # activations in force during frame j
+    crashed, errors = False, []
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        action = np.asarray(ctrl.act(ts)).reshape(spec_shape)
+        if np.issubdtype(spec_dtype, np.integer):
+            action = np.rint(action)  # levels from a policy may come as floats
+        ts = env.step(action.astype(spec_dtype))
+        if physics.failed() or not np.isfinite(physics.data.qpos[0]):
+            crashed = True
+            break
+        acts.append(np.clip(physics.activations(muscles), 0.0, 1.0))
+        q.append(float(physics.data.qpos[0]))
+        v.append(float(physics.data.qvel[0]))
+        errors.append(abs(physics.angle_deg() - env.task.target_deg()))
+        if ts.last():
+            break
+    t_sim = time.perf_counter() - t0
+    scale = _colour_scale(max((float(a.max()) for a in acts), default=0.0))
+
+    overlay = _Overlay(width, height, f"{task} · {ctrl.label}", muscles, scale)
+    tmp = out.with_name(f".{out.stem}.tmp{os.getpid()}{out.suffix}")
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=n_video, desc="render", unit="frame", leave=False)
+    t_render = 0.0
+    wall = time.perf_counter()
+    try:
+        renderer = mujoco.Renderer(model, height=height, width=width)
+        writer = _GifWriter(tmp, fps) if fmt == "gif" else _Mp4Writer(tmp, fps)
+        try:
+            for k in range(n_video):
+                t = k / fps
+                j = min(int(t / h + 1e-9), target.frames - 1)
+                s = t / h - j
+                t1 = time.perf_counter()
+                frozen = len(q) <= j + 1  # past a crash: the arm stays where it last was valid
+                if not frozen:
+                    angle, a = _hermite(q[j], v[j], q[j + 1], v[j + 1], s, h), acts[j]
+                else:
+                    angle, a = q[-1], acts[-1] if acts else np.zeros(len(muscles))
+                tgt = _hermite(target.angle_deg[j], target.velocity_deg_s[j], target.angle_deg[j + 1],
+                               target.velocity_deg_s[j + 1], s, h)
+                data.qpos[qadr] = angle
+                data.qpos[ghost_adr] = np.radians(tgt)
+                model.tendon_rgba[ten_ids] = PALE + np.minimum(a / scale, 1.0)[:, None] * (SATURATED - PALE)
+                mujoco.mj_forward(model, data)
+                renderer.update_scene(data, camera=camera)
+                frame = overlay.draw(renderer.render(), t, float(np.degrees(angle)), float(tgt), a,
+                                     crashed and frozen)
+                writer.append(frame)
+                t_render += time.perf_counter() - t1
+                if bar is not None:
+                    bar.update()
+        finally:
+            writer.close()
+            renderer.close()
+        os.replace(tmp, out)
+    finally:
+        if bar is not None:
+            bar.close()
+        if tmp.exists():
+            tmp.unlink()
+    wall = time.perf_counter() - wall + t_sim
+    return {"path": str(out), "frames": n_video, "fps": fps, "seconds": n_video / fps, "width": width,
+            "height": height, "task": task, "controller": ctrl.label, "crashed": crashed,
+            "mae_deg": float(np.mean(errors)) if errors else float("nan"), "wall_s": wall,
+            "render_fps": n_video / max(t_render, 1e-9), "sim_s": t_sim, "render_s": t_render,
+            "colour_scale": scale}

@@ -1,0 +1,102 @@
+"""`shoulder-bench render`: small headless videos decode with the expected frames, are not blank, show motion."""
+import argparse
+
+import imageio
+import numpy as np
+import pytest
+
+from shoulder_bench import render
+from shoulder_bench.render import render_video
+
+W, H = 160, 120
+
+
+def _lift_csv(path):
+    """30 -> 90 deg in 2 s: the arm certainly moves."""
+    t = np.arange(0, 2.01, 0.1)
+    a = 30 + 60 * np.clip(t / 1.5, 0, 1)
+    path.write_text("time_s,angle_deg\n" + "".join(f"{x:.1f},{y:.3f}\n" for x, y in zip(t, a)))
+    return path
+
+
+def _mp4_frames(path):
+    with imageio.get_reader(str(path), format="FFMPEG") as r:
+        return [np.asarray(f) for f in r]
+
+
+def _scene(frame):
+    """The picture below the text and bars at the top, above the text band at the bottom."""
+    return frame[H // 3: -H // 5].astype(float)
+
+
+def test_mp4_frames_not_blank_and_moving(tmp_path):
+    out = tmp_path / "lift.mp4"
+    info = render_video(out, task="abduction_4m", trajectory=_lift_csv(tmp_path / "lift.csv"), seconds=1.5,
+                        width=W, height=H, fps=20)
+    assert info["path"] == str(out) and info["frames"] == 30 and not info["crashed"]
+    frames = _mp4_frames(out)
+    assert abs(len(frames) - 20 * 1.5) <= 1
+    assert frames[0].shape == (H, W, 3)
+    assert all(f.std() > 10 for f in frames)  # not blank
+    moved = np.abs(_scene(frames[-1]) - _scene(frames[0])).mean()
+    assert moved > 3.0, f"the arm does not move (mean pixel change {moved:.2f})"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["lift.csv", "lift.mp4"]  # no temp file left
+
+
+def test_gif_from_the_command_line_with_a_policy(tmp_path):
+    torch = pytest.importorskip("torch")
+    from shoulder_bench.train.policy import save_policy
+
+    class Still(torch.nn.Module):
+        def forward(self, obs: torch.Tensor) -> torch.Tensor:
+            return torch.zeros(obs.shape[0], obs.shape[1] - 4)
+
+    pt = save_policy(Still(), tmp_path / "still.pt", {"task": "abduction_ssp", "algo": "still"})
+    parser = argparse.ArgumentParser()
+    render.add_parser(parser.add_subparsers())
+    args = parser.parse_args(["render", "--policy", str(pt), "--out", str(tmp_path / "clip.mp4"), "--gif",
+                              "--seconds", "1", "--width", str(W), "--height", str(H), "--fps", "10"])
+    assert args.func(args) == 0
+    gif = tmp_path / "clip.gif"  # --gif writes a GIF whatever the suffix given
+    assert gif.exists() and not (tmp_path / "clip.mp4").exists()
+    with imageio.get_reader(str(gif), format="GIF") as r:
+        frames = [np.asarray(f)[..., :3] for f in r]
+    assert abs(len(frames) - 10) <= 1
+    assert frames[0].shape[:2] == (H, W) and frames[0].std() > 10
+
+
+def test_bad_output_directory_is_a_clear_error_and_writes_nothing(tmp_path):
+    missing = tmp_path / "no" / "such" / "dir" / "x.mp4"
+    with pytest.raises(FileNotFoundError, match="does not exist.*mkdir"):
+        render_video(missing, seconds=0.5, width=W, height=H)
+    assert not (tmp_path / "no").exists()
+    with pytest.raises(ValueError, match=r"\.mp4"):
+        render_video(tmp_path / "x.avi", seconds=0.5, width=W, height=H)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_bad_inputs_are_clear_errors(tmp_path):
+    with pytest.raises(ValueError, match="unknown task.*abduction_4m"):
+        render_video(tmp_path / "x.mp4", task="abduction_4", seconds=0.5, width=W, height=H)
+    with pytest.raises(FileNotFoundError, match="policy file"):
+        render_video(tmp_path / "x.mp4", policy=str(tmp_path / "none.pt"), seconds=0.5, width=W, height=H)
+    with pytest.raises(FileNotFoundError, match="trajectory file"):
+        render_video(tmp_path / "x.mp4", trajectory=tmp_path / "none.csv", seconds=0.5, width=W, height=H)
+    with pytest.raises(ValueError, match="even"):
+        render_video(tmp_path / "x.mp4", seconds=0.5, width=161, height=H)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_failure_while_rendering_leaves_no_partial_file(tmp_path, monkeypatch):
+    calls = []
+
+    def draw(self, frame, *a):
+        calls.append(1)
+        if len(calls) > 3:
+            raise RuntimeError("boom")
+        return frame
+
+    monkeypatch.setattr(render._Overlay, "draw", draw)
+    with pytest.raises(RuntimeError, match="boom"):
+        render_video(tmp_path / "x.mp4", seconds=1, width=W, height=H, fps=10)
+    assert list(tmp_path.iterdir()) == []
