@@ -115,3 +115,11 @@ def test_value_based_tiny_run_and_resume(tmp_path, task, algo):
     (out / "metrics.json").unlink()  # as if killed after the last checkpoint: resume to a larger budget
     m2 = train(task, algo, frames=2400, out=out, config=cfg, resume=True, eval_every=10**9)
     assert m2["frames"] == 2400
+
+
+def test_ppo_error_features_and_reward_scale_export_a_policy_on_raw_observations(tmp_path):
+    out = tmp_path / "run"
+    train("abduction_ssp", "ppo", frames=256, out=out, config=_config(tmp_path, error_features=True, reward_scale=0.1),
+          eval_every=10**9)
+    policy, _ = load_policy(str(out))
+    assert policy(torch.zeros(2, 5)).shape == (2, 1)  # the task's 5 observations; the features are inside

@@ -36,14 +36,29 @@ class PPOConfig:
     value_loss_coef: float = 1.0
     max_grad_norm: float = 1.0
     init_std: float = 0.5  # in units of the 1 %/frame limit
+    reward_scale: float = 1.0  # rewards are multiplied by this for learning (rsl-rl does not normalise values)
+    error_features: bool = False  # append (target - angle) / 5 deg and (target vel - vel) / 10 deg/s to the input
     checkpoint_every: int = 10  # iterations
 
 
-class ScaledActions:
-    """The VecEnv seen by rsl-rl: actions in [-1, 1] become changes of activation within +-0.01."""
+class ErrorFeatures(torch.nn.Module):
+    """Appends the tracking errors to the observation: the policy needs them at ~1 deg resolution, which standardised
+    absolute angles (0-100 deg) blur. Part of the exported policy, so it still takes the task's observation."""
 
-    def __init__(self, venv):
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
+        err = (obs[:, 2:3] - obs[:, 0:1]) / 5.0
+        derr = (obs[:, 3:4] - obs[:, 1:2]) / 10.0
+        return torch.cat([obs, err, derr], dim=1)
+
+
+class ScaledActions:
+    """The VecEnv seen by rsl-rl: actions in [-1, 1] become changes of activation within +-0.01; rewards scaled by
+    `reward_scale`; observations optionally extended by `ErrorFeatures`."""
+
+    def __init__(self, venv, reward_scale: float = 1.0, error_features: bool = False):
         self.venv = venv
+        self.reward_scale = reward_scale
+        self.features = ErrorFeatures() if error_features else None
         for key in ("num_envs", "num_actions", "max_episode_length", "device", "cfg"):
             setattr(self, key, getattr(venv, key))
 
@@ -55,11 +70,18 @@ class ScaledActions:
     def episode_length_buf(self, value):
         self.venv.episode_length_buf = value
 
+    def _features(self, obs):
+        if self.features is not None:
+            for key in ("policy", "critic"):
+                obs[key] = self.features(obs[key])
+        return obs
+
     def get_observations(self):
-        return self.venv.get_observations()
+        return self._features(self.venv.get_observations())
 
     def step(self, actions):
-        return self.venv.step(torch.clamp(actions, -1.0, 1.0) * protocol.ACTION_LIMIT)
+        obs, rewards, dones, extras = self.venv.step(torch.clamp(actions, -1.0, 1.0) * protocol.ACTION_LIMIT)
+        return self._features(obs), rewards * self.reward_scale, dones, extras
 
 
 def rsl_config(cfg: PPOConfig, n_muscles: int) -> dict:
@@ -82,7 +104,7 @@ def rsl_config(cfg: PPOConfig, n_muscles: int) -> dict:
 
 def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval) -> torch.nn.Module:
     """Train until `run.frames` reaches `frames`; returns the exported (scripted) policy."""
-    env = ScaledActions(venv)
+    env = ScaledActions(venv, cfg.reward_scale, cfg.error_features)
     runner = OnPolicyRunner(env, rsl_config(cfg, venv.num_actions), log_dir=None, device="cpu")
     alg = runner.alg
     if run.checkpoint is not None:
@@ -110,15 +132,17 @@ def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval) -> to
                         "train/mean_return": np.mean(run.returns) if run.returns else None})
         run.advance(per_iteration, scalars)
         if run.frames >= next_eval or run.frames >= frames:
-            on_eval(export(alg))
+            on_eval(export(alg, cfg.error_features))
             next_eval = evaluate_every(run.frames)
         if iteration % cfg.checkpoint_every == 0 or run.frames >= frames:
             run.save_checkpoint({"alg": alg.save(), "torch_rng": torch.get_rng_state()})
-    return export(alg)
+    return export(alg, cfg.error_features)
 
 
-def export(alg) -> torch.nn.Module:
+def export(alg, error_features: bool = False) -> torch.nn.Module:
     actor = alg.get_policy().as_jit()
+    if error_features:
+        actor = torch.nn.Sequential(ErrorFeatures(), actor)
     return torch.jit.script(ScaledPolicy(torch.jit.script(actor), protocol.ACTION_LIMIT))
 
 
