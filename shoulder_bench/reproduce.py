@@ -8,11 +8,12 @@ from pathlib import Path
 
 import numpy as np
 
-# name -> (task, algo, frames, the paper's (MAE, RMSE) on their FEM model)
+# name -> (task, algo, frames, the paper's (MAE, RMSE) on their FEM model). PPO gets half the paper's 1.6 M frames:
+# on this model PPO-4 passes the paper's accuracy at the first test evaluation (100k frames) and keeps improving.
 EXPERIMENTS = {
     "dqn_ssp": ("abduction_ssp_discrete", "dqn", 200_000, (3.70, 5.78)),
-    "ppo_ssp": ("abduction_ssp", "ppo", 1_600_000, (4.00, 5.36)),
-    "ppo_4m": ("abduction_4m", "ppo", 1_600_000, (5.15, 6.64)),
+    "ppo_ssp": ("abduction_ssp", "ppo", 800_000, (4.00, 5.36)),
+    "ppo_4m": ("abduction_4m", "ppo", 800_000, (5.15, 6.64)),
     "bdq_4m": ("abduction_4m_discrete", "bdq", 500_000, None),
 }
 TABLE = Path("docs/reproduction.md")
