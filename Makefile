@@ -10,7 +10,7 @@ TORCH ?= torch==2.13.0
 
 $(BIN)/shoulder-bench: pyproject.toml
 	$(PY) -m venv $(VENV)
-	$(BIN)/pip install -q --upgrade pip
+	$(BIN)/pip install -q --upgrade pip "setuptools>=69" wheel  # the wheel test builds without isolation
 	$(BIN)/pip install -q $(TORCH)
 	$(BIN)/pip install -q -e ".[test]"
 	touch $@
