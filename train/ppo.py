@@ -7,6 +7,8 @@ Networks as in the paper: one hidden layer of 256 for one muscle, 3 x 250 for fo
 """
 from __future__ import annotations
 
+import contextlib
+import io
 import time
 from dataclasses import asdict, dataclass, field
 
@@ -105,7 +107,8 @@ def rsl_config(cfg: PPOConfig, n_muscles: int) -> dict:
 def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval) -> torch.nn.Module:
     """Train until `run.frames` reaches `frames`; returns the exported (scripted) policy."""
     env = ScaledActions(venv, cfg.reward_scale, cfg.error_features)
-    runner = OnPolicyRunner(env, rsl_config(cfg, venv.num_actions), log_dir=None, device="cpu")
+    with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints the networks; the config already records them
+        runner = OnPolicyRunner(env, rsl_config(cfg, venv.num_actions), log_dir=None, device="cpu")
     alg = runner.alg
     if run.checkpoint is not None:
         alg.load(run.checkpoint["state"]["alg"], None, True)
