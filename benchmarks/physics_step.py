@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 
 from shoulder_bench import statics
-from shoulder_bench.model import _LAWS, JOINT, load_model
+from shoulder_bench.model import JOINT, law_of, load_model
 
 FRAMES = 100
 CANDIDATES = [("RK4", 0.025), ("RK4", 0.05), ("RK4", 0.1), ("IMPLICITFAST", 0.002), ("IMPLICITFAST", 0.005),
@@ -53,7 +53,7 @@ def main() -> None:
     p.add_argument("--seeds", type=int, default=5)
     args = p.parse_args()
     m = load_model(**({"muscle_model": args.muscle_model} if args.muscle_model else {}))
-    law = _LAWS[int(m.actuator_user[0, 0])]
+    law = law_of(m)
     profiles = [profile(law, s) for s in range(args.seeds)]
     refs = [simulate(m, a, "RK4", 0.0005) for a in profiles]
     print(f"{'integrator':>13} {'step ms':>8} {'max error deg':>14} {'slam range deg':>18}  verdict")

@@ -153,6 +153,14 @@ def attach_law(m: mujoco.MjModel, law) -> None:
     _current[:] = [None, None, None, None]
 
 
+def law_of(m: mujoco.MjModel):
+    """The force law the callback evaluates for model `m` (or a copy of it); KeyError if none is attached."""
+    law = _LAWS.get(int(m.actuator_user[0, 0])) if m.nu else None
+    if law is None:
+        raise KeyError("model has no muscle law attached; load it with shoulder_bench.model.load_model")
+    return law
+
+
 def load_model(muscle_model: str = DEFAULT_MUSCLE_MODEL, muscles=None, path: Path | str = MODEL_PATH) -> mujoco.MjModel:
     """Compile the shoulder, attach the tabled force law and install the callbacks.
 

@@ -18,7 +18,7 @@ from dm_env import specs
 
 from shoulder_bench import protocol, statics, trajectory
 from shoulder_bench.anatomy import JOINT_RANGE_DEG
-from shoulder_bench.model import DEFAULT_MUSCLE_MODEL, SCENE_PATH, attach_law, compile_model, install_callbacks
+from shoulder_bench.model import DEFAULT_MUSCLE_MODEL, SCENE_PATH, attach_law, compile_model, install_callbacks, law_of
 
 VALID_MARGIN_DEG = 5.0  # beyond the joint limits by more than this = the simulation has failed
 
@@ -122,9 +122,7 @@ class Abduction(control.Task):
 
     def _law(self, physics):
         if self.law is None:
-            from shoulder_bench.model import _LAWS
-
-            self.law = _LAWS[int(physics.model.actuator_user[0, 0])]
+            self.law = law_of(physics.model.ptr)
         return self.law
 
     def before_step(self, action, physics):

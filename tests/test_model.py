@@ -8,11 +8,11 @@ import pytest
 import shoulder_bench
 from shoulder_bench import anatomy, mjcf
 from shoulder_bench.model import (
-    _LAWS,
     MODEL_PATH,
     attach_law,
     compile_model,
     install_callbacks,
+    law_of,
     load_model,
     moment_arms,
 )
@@ -67,7 +67,7 @@ def test_ssp_and_dmi_paths_do_not_cut_through_the_humeral_head():
 
 def test_callback_applies_the_tabled_force():
     m = load_model("hill")
-    law = _LAWS[int(m.actuator_user[0, 0])]
+    law = law_of(m)
     d = mujoco.MjData(m)
     rng = np.random.default_rng(0)
     for _ in range(20):
