@@ -17,7 +17,7 @@ def gravity_torque(angle_rad: np.ndarray) -> np.ndarray:
     return -anatomy.HUMERUS_MASS * GRAVITY * com * np.sin(angle_rad)
 
 
-def distribute(law, angle_rad: np.ndarray, torque: np.ndarray, upper=1.0, lower=0.0, iters: int = 30) -> np.ndarray:
+def distribute(law, angle_rad: np.ndarray, torque: np.ndarray, upper=1.0, lower=0.0, iters: int = 60) -> np.ndarray:
     """Activations (B, n) in [lower, upper] that produce `torque` (B,) at rest and minimise sum a^2.
 
     The isometric torque is affine in each activation on its table cell, tau = p + s . a; the minimum-norm solution is
@@ -36,10 +36,9 @@ def distribute(law, angle_rad: np.ndarray, torque: np.ndarray, upper=1.0, lower=
         a = np.clip(lam[:, None] * slope, lower, upper)
         return a, (law.force(angle_rad, zero, a) * arm).sum(axis=1)
 
-    lo, hi = np.full(b, -1.0), np.full(b, 1.0)
     scale = np.maximum(np.abs(slope).max(axis=1), 1e-9)
-    lo, hi = lo / scale ** 2 * 1e3, hi / scale ** 2 * 1e3  # wide enough that every activation saturates
-    for _ in range(iters + 30):
+    lo, hi = -1e3 / scale ** 2, 1e3 / scale ** 2  # wide enough that every activation saturates
+    for _ in range(iters):
         mid = 0.5 * (lo + hi)
         _, t = tau(mid)
         low = t < torque
