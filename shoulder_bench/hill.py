@@ -12,11 +12,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import mujoco
 import numpy as np
 
 from shoulder_bench import anatomy
-from shoulder_bench.model import JOINT, MODEL_PATH, compile_model, moment_arms
+from shoulder_bench.model import MODEL_PATH, tendon_geometry
 
 ANGLE_GRID_DEG = np.arange(-10.0, 160.0 + 1e-9, 5.0)
 ACTIVATION_GRID = np.array([0.0, 0.5, 1.0])  # the law is linear in activation, so interpolation is exact
@@ -32,30 +31,15 @@ def passive_force_length(l_norm: np.ndarray) -> np.ndarray:
     return np.where(l_norm > 1.0, (np.exp(4.0 * (l_norm - 1.0) / 0.6) - 1.0) / (np.exp(4.0) - 1.0), 0.0)
 
 
-def tendon_lengths(angle_deg: np.ndarray, path: Path | str = MODEL_PATH) -> dict[str, np.ndarray]:
-    m = compile_model(path)
-    d = mujoco.MjData(m)
-    adr = m.joint(JOINT).qposadr[0]
-    out = np.zeros((len(angle_deg), m.ntendon))
-    for k, a in enumerate(np.radians(angle_deg)):
-        d.qpos[adr] = a
-        mujoco.mj_kinematics(m, d)
-        mujoco.mj_comPos(m, d)
-        mujoco.mj_tendon(m, d)
-        out[k] = d.ten_length
-    return {m.tendon(t).name: out[:, t] for t in range(m.ntendon)}
-
-
 def build_tables(folder: Path | None = None, path: Path | str = MODEL_PATH) -> list[Path]:
     from shoulder_bench.muscle import table_path
 
-    lengths = tendon_lengths(ANGLE_GRID_DEG, path)
-    lengths_opt = tendon_lengths(np.array(list(OPTIMAL_ANGLE_DEG.values())), path)
-    arms = moment_arms(ANGLE_GRID_DEG, path)
+    lengths, arms = tendon_geometry(ANGLE_GRID_DEG, path)
     written = []
-    for k, muscle in enumerate(anatomy.MUSCLES):
+    for muscle in anatomy.MUSCLES:
         l_opt = anatomy.OPTIMAL_FIBRE_LENGTH[muscle]
-        l_norm = 1.0 + (lengths[muscle] - lengths_opt[muscle][k]) / l_opt
+        at_optimum = np.interp(OPTIMAL_ANGLE_DEG[muscle], ANGLE_GRID_DEG, lengths[muscle])  # optimal angles on grid
+        l_norm = 1.0 + (lengths[muscle] - at_optimum) / l_opt
         f = anatomy.F0[muscle] * (ACTIVATION_GRID[None, :] * active_force_length(l_norm)[:, None]
                                   + passive_force_length(l_norm)[:, None])
         meta = {"model": "hill", "muscle": muscle, "law": "Thelen 2003 rigid-tendon Hill curves",

@@ -179,19 +179,27 @@ def muscle_names(m: mujoco.MjModel) -> tuple[str, ...]:
     return tuple(m.actuator(i).name for i in range(m.nu))
 
 
-def moment_arms(angle_deg: np.ndarray, path: Path | str = MODEL_PATH) -> dict[str, np.ndarray]:
-    """MJCF tendon moment arms (m, positive = elevates the arm) at the given abduction angles."""
+def tendon_geometry(angle_deg, path: Path | str = MODEL_PATH) -> tuple[dict, dict]:
+    """(tendon lengths (m), moment arms (m, positive = elevates the arm)) per tendon at the given abduction angles."""
     m = compile_model(path)
     d = mujoco.MjData(m)
     jnt = m.joint(JOINT)
-    out = np.zeros((len(np.atleast_1d(angle_deg)), m.ntendon))
-    for k, a in enumerate(np.radians(np.atleast_1d(angle_deg))):
+    angles = np.radians(np.atleast_1d(angle_deg))
+    lengths, arms = np.zeros((len(angles), m.ntendon)), np.zeros((len(angles), m.ntendon))
+    for k, a in enumerate(angles):
         d.qpos[jnt.qposadr[0]] = a
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
         mujoco.mj_tendon(m, d)
-        out[k] = -tendon_jacobian(m, d)[:, jnt.dofadr[0]]
-    return {m.tendon(t).name: out[:, t] for t in range(m.ntendon)}
+        lengths[k] = d.ten_length
+        arms[k] = -tendon_jacobian(m, d)[:, jnt.dofadr[0]]
+    names = [m.tendon(t).name for t in range(m.ntendon)]
+    return ({n: lengths[:, t] for t, n in enumerate(names)}, {n: arms[:, t] for t, n in enumerate(names)})
+
+
+def moment_arms(angle_deg, path: Path | str = MODEL_PATH) -> dict[str, np.ndarray]:
+    """MJCF tendon moment arms (m, positive = elevates the arm) at the given abduction angles."""
+    return tendon_geometry(angle_deg, path)[1]
 
 
 def tendon_jacobian(m: mujoco.MjModel, d: mujoco.MjData) -> np.ndarray:
