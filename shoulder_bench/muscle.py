@@ -178,11 +178,6 @@ class ForceLaw:
         w = (x - i)[:, None]
         return self._arm[i] + (self._arm[i + 1] - self._arm[i]) * w
 
-    def isometric(self, angle: np.ndarray, activation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(active, passive) isometric tendon forces, each (B, n), at angles (B,) rad and activations (B, n)."""
-        active, _, passive, _ = self._evaluate(angle, np.zeros(len(angle)), activation)
-        return active, passive
-
     def force_velocity(self, angle: np.ndarray, velocity: np.ndarray) -> np.ndarray:
         """(B, n) force-velocity factor from the joint angular velocity (rad/s) through the moment arms."""
         return self._evaluate(angle, velocity, np.zeros((len(angle), self._n)))[3]

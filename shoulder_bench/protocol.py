@@ -40,6 +40,12 @@ def observation(angle_deg, velocity_deg_s, target_deg, target_velocity_deg_s, ac
             "activations": np.atleast_2d(np.asarray(activations, dtype=float))}
 
 
+def flatten(observation: dict) -> np.ndarray:
+    """One observation dict (a dm_control time step's) as a flat float32 vector in OBSERVATION_KEYS order: what the
+    gymnasium env returns and what policies take."""
+    return np.concatenate([np.ravel(observation[k]) for k in OBSERVATION_KEYS]).astype(np.float32)
+
+
 def to_delta(action, n: int, discrete: bool, batch: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(applied, sent) changes of activation, each (B, n), from actions; ValueError for a wrong shape or NaN/inf.
 

@@ -106,7 +106,7 @@ def _controller(policy: str | None, task: str | None) -> tuple[_Controller, str]
     from shoulder_bench.tasks import TASKS
 
     def flat(obs) -> torch.Tensor:
-        x = np.concatenate([np.ravel(obs[k]) for k in protocol.OBSERVATION_KEYS]).astype(np.float32)
+        x = protocol.flatten(obs)
         return torch.from_numpy(x)[None, :]
 
     if policy is None:

@@ -30,7 +30,7 @@ class ShoulderEnv(gym.Env):
         self.render_mode = render_mode
 
     def _obs(self, ts) -> np.ndarray:
-        return np.concatenate([np.ravel(ts.observation[k]) for k in protocol.OBSERVATION_KEYS]).astype(np.float32)
+        return protocol.flatten(ts.observation)
 
     def _info(self) -> dict:
         physics = self.env.physics
