@@ -23,8 +23,31 @@ def trajectories_for(spec: str) -> list[Trajectory]:
     return load_csv(spec)
 
 
-def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: str | None = None) -> dict:
-    """Roll out `policy` (float32 obs (B, 4 + n) -> actions) greedily on every trajectory; return the metrics."""
+def policy_for(spec: str, task: str | None = None) -> tuple[object, dict, str]:
+    """(policy, metadata, task) for a policy file, run folder, `pretrained:NAME` or `reference` (the model-based
+    controller, on `task`, default abduction_4m). A trained policy runs on the task it was trained on."""
+    from shoulder_bench.tasks import _check
+
+    if spec == "reference":
+        from shoulder_bench.eval.reference import ReferenceController
+
+        task = _check(task or "abduction_4m")
+        return ReferenceController(task), {"task": task, "algo": "reference"}, task
+    from shoulder_bench.train.policy import load_policy
+
+    policy, meta = load_policy(spec)
+    if task is not None and _check(task) != meta.get("task"):
+        raise ValueError(f"policy {spec} was trained on {meta.get('task')!r}, not {task!r}; pass --task "
+                         f"{meta.get('task')} or leave --task out")
+    return policy, meta, _check(meta["task"])
+
+
+def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: str | None = None,
+             record: bool = False) -> dict:
+    """Roll out `policy` (float32 obs (B, 4 + n) -> actions) greedily on every trajectory; return the metrics.
+
+    record=True adds "trace": angle_deg, target_deg (B, T) and activation (B, T, n) after each frame, NaN after a
+    trajectory's end or crash."""
     import shoulder_bench
 
     options = {} if muscle_model is None else {"muscle_model": muscle_model}
@@ -35,6 +58,9 @@ def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: st
     crashed = np.zeros(n, dtype=bool)
     active = np.ones(n, dtype=bool)
     obs = venv.get_observations()["policy"]
+    if record:
+        trace = {"angle_deg": np.full(err.shape, np.nan), "target_deg": np.full(err.shape, np.nan),
+                 "activation": np.full(err.shape + (venv.n,), np.nan)}
     with torch.inference_mode():
         for k in range(int(frames.max())):
             action = policy(obs)
@@ -43,6 +69,11 @@ def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: st
             e = np.abs(venv.last_angle_deg - venv.last_target_deg)
             now_crashed = active & venv.last_crashed
             err[active & ~now_crashed, k] = e[active & ~now_crashed]
+            if record:
+                live = active & ~now_crashed
+                trace["angle_deg"][live, k] = venv.last_angle_deg[live]
+                trace["target_deg"][live, k] = venv.last_target_deg[live]
+                trace["activation"][live, k] = venv.last_activation[live]
             for i in np.flatnonzero(now_crashed):
                 err[i, k:frames[i]] = protocol.CRASH_ERROR_DEG
             crashed |= now_crashed
@@ -53,7 +84,10 @@ def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: st
     per_mae = np.array([np.nanmean(err[i, :frames[i]]) for i in range(n)])
     per_rmse = np.array([np.sqrt(np.nanmean(err[i, :frames[i]] ** 2)) for i in range(n)])
     flat = np.concatenate([err[i, :frames[i]] for i in range(n)])
-    return {"mae_deg": float(np.mean(flat)), "rmse_deg": float(np.sqrt(np.mean(flat ** 2))),
-            "n_trajectories": n, "crashes": int(crashed.sum()), "frames": int(frames.sum()),
-            "per_trajectory": {"mae_deg": per_mae.round(4).tolist(), "rmse_deg": per_rmse.round(4).tolist(),
-                               "crashed": crashed.tolist()}}
+    out = {"mae_deg": float(np.mean(flat)), "rmse_deg": float(np.sqrt(np.mean(flat ** 2))),
+           "n_trajectories": n, "crashes": int(crashed.sum()), "frames": int(frames.sum()),
+           "per_trajectory": {"mae_deg": per_mae.round(4).tolist(), "rmse_deg": per_rmse.round(4).tolist(),
+                              "crashed": crashed.tolist()}}
+    if record:
+        out["trace"] = trace
+    return out

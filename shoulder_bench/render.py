@@ -124,23 +124,12 @@ def _controller(policy: str | None, task: str | None) -> tuple[_Controller, str]
             return delta
 
         return _Controller("feedback (PD)", act), task
-    if policy == "reference":
-        from shoulder_bench.eval.reference import ReferenceController
+    from shoulder_bench.eval.evaluate import policy_for
 
-        task = _check_task(task or "abduction_4m")
-        module, meta = ReferenceController(task), {"algo": "reference"}
+    module, meta, task = policy_for(policy, task)
+    if policy == "reference":
         label = "reference controller"
     else:
-        from shoulder_bench.train.policy import load_policy
-
-        module, meta = load_policy(policy)
-        trained = meta.get("task")
-        if task is not None:
-            task = _check_task(task)
-            if trained != task:
-                raise ValueError(f"policy {policy} was trained on {trained!r}, not {task!r}; pass --task {trained} "
-                                 f"or leave --task out")
-        task = _check_task(trained)
         shown = policy if policy.startswith("pretrained:") else Path(policy).name
         label = f"{meta.get('algo', 'policy')} ({shown})"
 

@@ -115,6 +115,7 @@ class VecEnv(_RslVecEnv):
         reward = np.where(crashed, -protocol.CRASH_ERROR_DEG * left, reward)
         self.last_reward = reward  # float64; the returned tensor is a float32 cast
         self.last_angle_deg, self.last_target_deg, self.last_crashed = angle, target_now, crashed
+        self.last_activation = self.act.copy()  # in force during this frame (before any auto-reset)
         self._return += reward
         self._abs_err += np.where(crashed, 0.0, np.abs(angle - target_now))
         time_out = (self.frames >= self.episode_frames) & ~crashed
