@@ -34,7 +34,7 @@ def add_parser(sub) -> None:
     p.set_defaults(func=_eval)
 
 
-def _algo_module(algo: str):
+def algo_module(algo: str):
     if algo == "ppo":
         from shoulder_bench.train import ppo
 
@@ -85,6 +85,17 @@ def check_task(task: str, algo: str) -> None:
 DEFAULT_FRAMES = {"ppo": 1_600_000, "dqn": 200_000, "bdq": 500_000}
 
 
+def finished_metrics(out: Path, task: str, algo: str, frames: int) -> dict | None:
+    """metrics.json of a finished run of `algo` on `task` in `out` with at least `frames`, else None."""
+    try:
+        metrics = json.loads((out / "metrics.json").read_text())
+        config = json.loads((out / "config.json").read_text())
+    except (OSError, json.JSONDecodeError):
+        return None
+    same = (config.get("task"), config.get("algo")) == (task, algo)
+    return metrics if same and metrics.get("frames", 0) >= frames and (out / "policy.pt").exists() else None
+
+
 def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: Path | None = None,
           resume: bool = False, config: Path | None = None, muscle_model: str | None = None,
           eval_every: int = 100_000) -> dict:
@@ -97,15 +108,16 @@ def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: P
     from shoulder_bench.trajectory import load_test_set
 
     check_task(task, algo)
-    module, cls = _algo_module(algo)
+    module, cls = algo_module(algo)
     cfg = load_config(cls, config) if algo == "ppo" else _dqn_config(task, config)
     frames = frames or DEFAULT_FRAMES[algo]
     muscle_model = muscle_model or DEFAULT_MUSCLE_MODEL
-    out = out or Path("runs") / task / algo / str(seed)
+    out = Path(out or Path("runs") / task / algo / str(seed))
+    done = finished_metrics(out, task, algo, frames) if resume else None
+    if done is not None:  # nothing to do; opening the run again would start a new TensorBoard file
+        return done
     run = Run(out, {"task": task, "algo": algo, "seed": seed, "frames": frames, "muscle_model": muscle_model,
                     "config": dataclasses.asdict(cfg)}, resume)
-    if run.frames >= frames and (run.dir / "policy.pt").exists():
-        return json.loads((run.dir / "metrics.json").read_text()) if (run.dir / "metrics.json").exists() else {}
     # the simulator's rollout threads own the cores while stepping; torch's small matrices gain nothing from more
     # threads and OpenMP threads spinning against them cost 10x (measured: 34 s -> 3 s per PPO iteration)
     torch.set_num_threads(1)
@@ -158,18 +170,10 @@ def inference_latency_ms(policy, obs_dim: int, repeats: int = 2000) -> float:
 
 
 def _eval(args) -> int:
-    from shoulder_bench.eval.evaluate import evaluate, trajectories_for
+    from shoulder_bench.eval.evaluate import evaluate, policy_for, trajectories_for
     from shoulder_bench.tasks import TASKS
-    from shoulder_bench.train.policy import load_policy
 
-    if args.policy == "reference":
-        from shoulder_bench.eval.reference import ReferenceController
-
-        task = args.task or "abduction_4m"
-        policy, meta = ReferenceController(task), {"task": task}
-    else:
-        policy, meta = load_policy(args.policy)
-    task = args.task or meta["task"]
+    policy, meta, task = policy_for(args.policy, args.task)
     trajs = trajectories_for(args.trajectories)
     m = evaluate(policy, task, trajs, muscle_model=meta.get("muscle_model"))
     for i, (mae, rmse, crashed) in enumerate(zip(*m["per_trajectory"].values())):
