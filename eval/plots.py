@@ -1,5 +1,13 @@
-"""`shoulder-bench plot curves RUN... --out FILE.png`: training curves from runs' TensorBoard logs (paper Figs. 2, 4):
-mean episode return of recent training episodes and test-set MAE against frames, one line per run."""
+"""`shoulder-bench plot FIGURE ...`: the paper's figures (Figs. 2-5) for our runs and agents, as PNG and SVG.
+
+- curves RUN...                  reward and test-MAE curves of training runs (Figs. 2, 4)
+- trajectory --policy SPEC...    one test trajectory: target, angle and each muscle's activation (Figs. 3, 5)
+- errors --policy SPEC...        per-trajectory MAE and RMSE on the test set as box plots, one box per policy (Fig. 3)
+- activations --policy SPEC      four-muscle activation patterns against the abduction angle over the test set (Fig. 5)
+- paper [--runs DIR]             all of them from the shipped agents (and curves from runs) into one folder
+
+SPEC is a policy file, a run folder, `pretrained:NAME` or `reference` (the model-based controller, on --task).
+"""
 from __future__ import annotations
 
 import json
@@ -7,20 +15,87 @@ from pathlib import Path
 
 import matplotlib
 import matplotlib.ticker
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+MUSCLE_COLOURS = {"ssp": "tab:orange", "isp": "tab:green", "dmi": "tab:red", "ld": "tab:purple"}
+PAPER_MEANS = {"abduction_ssp_discrete": (3.70, 5.78), "abduction_ssp": (4.00, 5.36), "abduction_4m": (5.15, 6.64)}
+
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("plot", help="figures")
+    p = sub.add_parser("plot", help="figures (PNG and SVG): curves, trajectory, errors, activations, paper")
     what = p.add_subparsers(dest="figure", required=True, metavar="FIGURE")
     c = what.add_parser("curves", help="reward and test-MAE curves of training runs")
     c.add_argument("runs", nargs="+", type=Path, help="run folders (runs/<task>/<algo>/<seed>)")
     c.add_argument("--out", type=Path, default=Path("curves.png"))
-    c.set_defaults(func=_curves)
+    c.set_defaults(func=lambda a: _done(plot_curves(a.runs, a.out)))
+    for name, text, many in (("trajectory", "one trajectory: target, angle and activations, per policy", True),
+                             ("errors", "per-trajectory MAE and RMSE on the test set, box plots per policy", True),
+                             ("activations", "activation of each muscle against the abduction angle", False)):
+        f = what.add_parser(name, help=text)
+        f.add_argument("--policy", required=True, action="append" if many else "store",
+                       help="policy file, run folder, pretrained:NAME or reference" + (" (repeat for more)" if many
+                                                                                       else ""))
+        f.add_argument("--task", default=None, help="the task for `reference` (default abduction_4m)")
+        f.add_argument("--out", type=Path, default=Path(f"{name}.png"))
+        if name == "trajectory":
+            f.add_argument("--trajectories", default="test", help="test, combing or a CSV file")
+            f.add_argument("--index", type=int, default=0, help="which trajectory of that set")
+        f.set_defaults(func=_figure)
+    a = what.add_parser("paper", help="the paper-style figures from the shipped agents (and curves from --runs)")
+    a.add_argument("--runs", type=Path, default=None, help="runs/<task>/<algo>/<seed> folders for the curves")
+    a.add_argument("--out-dir", type=Path, default=Path("figures"))
+    a.set_defaults(func=lambda a: _done(*paper_figures(a.out_dir, a.runs)))
 
 
+def checked(out: Path | str) -> Path:
+    """The figure's path, checked before any work: a .png, .svg or .pdf name."""
+    out = Path(out)
+    if out.suffix.lower() not in (".png", ".svg", ".pdf"):
+        raise ValueError(f"{out}: give a .png, .svg or .pdf file name")
+    return out
+
+
+def save(fig, out: Path | str) -> list[Path]:
+    """Write `out` and the same figure as SVG beside it."""
+    out = checked(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    paths = [out] + ([out.with_suffix(".svg")] if out.suffix.lower() != ".svg" else [])
+    for path in paths:
+        fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return paths
+
+
+def _done(*paths) -> int:
+    for p in paths:
+        for q in p if isinstance(p, list) else [p]:
+            print(q)
+    return 0
+
+
+def _label(spec: str, meta: dict, task: str) -> str:
+    if spec == "reference":
+        return f"reference · {task}"
+    shown = spec.split(":", 1)[1] if spec.startswith("pretrained:") else Path(spec).name
+    return f"{meta.get('algo', 'policy').upper()} · {shown}"
+
+
+def _rollouts(specs: list[str], task: str | None, trajectories) -> list[tuple[str, str, dict]]:
+    """(label, task, recorded evaluation) per policy."""
+    from shoulder_bench.eval.evaluate import evaluate, policy_for
+
+    out = []
+    for spec in specs:
+        policy, meta, t = policy_for(spec, task if spec == "reference" else None)
+        out.append((_label(spec, meta, t), t, evaluate(policy, t, trajectories, muscle_model=meta.get("muscle_model"),
+                                                       record=True)))
+    return out
+
+
+# --- figures ------------------------------------------------------------------------------------------------------
 def scalars(run: Path, tag: str) -> tuple[list[int], list[float]]:
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
@@ -35,7 +110,8 @@ def scalars(run: Path, tag: str) -> tuple[list[int], list[float]]:
     return [e.step for e in events], [e.value for e in events]
 
 
-def plot_curves(runs: list[Path], out: Path) -> Path:
+def plot_curves(runs: list[Path], out: Path) -> list[Path]:
+    checked(out)
     fig, (ax_r, ax_e) = plt.subplots(1, 2, figsize=(11, 4))
     for run in runs:
         cfg = json.loads((Path(run) / "config.json").read_text())
@@ -50,12 +126,134 @@ def plot_curves(runs: list[Path], out: Path) -> Path:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
     fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=120)
-    plt.close(fig)
-    return out
+    return save(fig, out)
 
 
-def _curves(args) -> int:
-    print(plot_curves(args.runs, args.out))
-    return 0
+def plot_trajectory(specs: list[str], out: Path, task: str | None = None, trajectories: str = "test",
+                    index: int = 0) -> list[Path]:
+    """Per policy, one column: target and angle (top), each muscle's activation (bottom)."""
+    checked(out)
+    from shoulder_bench.eval.evaluate import trajectories_for
+    from shoulder_bench.protocol import FRAME_S
+    from shoulder_bench.tasks import TASKS
+
+    pool = trajectories_for(trajectories)
+    if not 0 <= index < len(pool):
+        raise ValueError(f"--index {index}: the {trajectories} set has {len(pool)} trajectories (0..{len(pool) - 1})")
+    runs = _rollouts(specs, task, [pool[index]])
+    fig, axes = plt.subplots(2, len(runs), figsize=(4.2 * len(runs) + 0.5, 5.2), sharex=True, squeeze=False,
+                             gridspec_kw={"height_ratios": [3, 2]})
+    for col, (label, t, m) in enumerate(runs):
+        tr = m["trace"]
+        time = (np.arange(tr["angle_deg"].shape[1]) + 1) * FRAME_S
+        top, bottom = axes[0, col], axes[1, col]
+        top.plot(time, tr["target_deg"][0], color="black", lw=1.5, label="target")
+        top.plot(time, tr["angle_deg"][0], color="tab:blue", lw=1.2, label="angle")
+        top.set(title=f"{label}\nMAE {m['mae_deg']:.2f} deg" + (" · CRASHED" if m["crashes"] else ""),
+                ylabel="abduction (deg)" if col == 0 else None)
+        for k, muscle in enumerate(TASKS[t][0]):
+            bottom.plot(time, tr["activation"][0, :, k], color=MUSCLE_COLOURS[muscle], label=muscle)
+        bottom.set(xlabel="time (s)", ylabel="activation" if col == 0 else None, ylim=(-0.02, 1.02))
+        for ax in (top, bottom):
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=7, loc="upper right")
+    fig.suptitle(f"{trajectories} trajectory {index}", fontsize=10)
+    fig.tight_layout()
+    return save(fig, out)
+
+
+def error_boxes(ax_mae, ax_rmse, groups: list[tuple[str, str, np.ndarray, np.ndarray]]) -> None:
+    """Box plots of per-trajectory MAE and RMSE, one box per (label, task, mae, rmse); the paper's means as diamonds."""
+    labels = [g[0] for g in groups]
+    for ax, col, name in ((ax_mae, 2, "MAE"), (ax_rmse, 3, "RMSE")):
+        ax.boxplot([g[col] for g in groups], orientation="horizontal", tick_labels=labels, showfliers=True,
+                   flierprops={"markersize": 3})
+        marked = False
+        for y, g in enumerate(groups, start=1):
+            paper = PAPER_MEANS.get(g[1]) if g[0].split(" ·")[0] in ("PPO", "DQN") else None
+            if paper:
+                ax.plot(paper[col - 2], y, "D", color="gray", ms=6,
+                        label=None if marked else "paper mean (their model)")
+                marked = True
+        ax.set(xscale="log", xlabel=f"per-trajectory {name} (deg), log scale")
+        ax.grid(alpha=0.3, axis="x")
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7)
+    ax_rmse.tick_params(labelleft=False)
+
+
+def plot_errors(specs: list[str], out: Path, task: str | None = None) -> list[Path]:
+    checked(out)
+    from shoulder_bench.eval.evaluate import trajectories_for
+
+    runs = _rollouts(specs, task, trajectories_for("test"))
+    groups = [(label, t, np.array(m["per_trajectory"]["mae_deg"]), np.array(m["per_trajectory"]["rmse_deg"]))
+              for label, t, m in runs]
+    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 0.45 * len(groups) + 1.6), sharey=True)
+    error_boxes(a, b, groups)
+    a.invert_yaxis()  # the first policy on top
+    fig.suptitle("fixed test set: 100 trajectories of 20 s", fontsize=10)
+    fig.tight_layout()
+    return save(fig, out)
+
+
+def plot_activations(spec: str, out: Path, task: str | None = None, bin_deg: float = 5.0) -> list[Path]:
+    """Mean activation of each muscle against the angle (left), and each muscle's share of the sum (right)."""
+    checked(out)
+    from shoulder_bench.eval.evaluate import trajectories_for
+    from shoulder_bench.eval.measures import EARLY_DEG
+    from shoulder_bench.tasks import TASKS
+
+    ((label, t, m),) = _rollouts([spec], task, trajectories_for("test"))
+    muscles = TASKS[t][0]
+    tr = m["trace"]
+    ok = ~np.isnan(tr["angle_deg"])
+    q, a = tr["angle_deg"][ok], tr["activation"][ok]
+    edges = np.arange(np.floor(q.min() / bin_deg) * bin_deg, q.max() + bin_deg, bin_deg)
+    which = np.digitize(q, edges) - 1
+    used = [b for b in range(len(edges) - 1) if np.count_nonzero(which == b) >= 20]
+    centres = np.array([edges[b] + bin_deg / 2 for b in used])
+    mean = np.array([a[which == b].mean(axis=0) for b in used])
+    std = np.array([a[which == b].std(axis=0) for b in used])
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4))
+    for k, muscle in enumerate(muscles):
+        c = MUSCLE_COLOURS[muscle]
+        left.plot(centres, mean[:, k], color=c, label=muscle)
+        left.fill_between(centres, mean[:, k] - std[:, k], mean[:, k] + std[:, k], color=c, alpha=0.15)
+    share = mean / np.maximum(mean.sum(axis=1, keepdims=True), 1e-12)
+    right.stackplot(centres, share.T, labels=list(muscles), colors=[MUSCLE_COLOURS[x] for x in muscles], alpha=0.8)
+    left.set(xlabel="abduction angle (deg)", ylabel="activation (mean ± std over frames)",
+             title=f"{label}: activation against angle (test set)")
+    right.set(xlabel="abduction angle (deg)", ylabel="share of summed activation", ylim=(0, 1),
+              title="each muscle's share")
+    for ax in (left, right):
+        ax.axvline(EARLY_DEG, color="black", ls=":", lw=1)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    return save(fig, out)
+
+
+def paper_figures(out_dir: Path, runs: Path | None = None) -> list[Path]:
+    """The paper-style set from the shipped agents: Fig. 3 (DQN and PPO, one muscle, and PPO-4 on the same target),
+    the error distributions, Fig. 5's activation patterns, and training curves when runs are given."""
+    out_dir = Path(out_dir)
+    written = plot_trajectory(["pretrained:dqn_ssp", "pretrained:ppo_ssp", "pretrained:ppo_4m", "pretrained:bdq_4m"],
+                              out_dir / "trajectory.png")
+    written += plot_errors(["pretrained:dqn_ssp", "pretrained:ppo_ssp", "pretrained:bdq_4m", "pretrained:ppo_4m",
+                            "reference"], out_dir / "errors.png")
+    written += plot_activations("pretrained:ppo_4m", out_dir / "activations.png")
+    if runs is not None:
+        found = sorted(p.parent for p in Path(runs).glob("*/*/0/config.json") if (p.parent / "tb").is_dir())
+        if not found:
+            raise FileNotFoundError(f"{runs} holds no seed-0 runs with TensorBoard logs (runs/<task>/<algo>/0/tb)")
+        written += plot_curves(found, out_dir / "curves.png")
+    return written
+
+
+def _figure(args) -> int:
+    if args.figure == "trajectory":
+        return _done(plot_trajectory(args.policy, args.out, args.task, args.trajectories, args.index))
+    if args.figure == "errors":
+        return _done(plot_errors(args.policy, args.out, args.task))
+    return _done(plot_activations(args.policy, args.out, args.task))
