@@ -1,0 +1,264 @@
+"""`shoulder-bench sweep`: train a grid of tasks x algorithms x seeds, on a local process pool or a Ray cluster.
+
+Every run is `shoulder-bench train ... --resume` in its own process, with its output in `<run>/train.log`, so one
+crashing run cannot take the others down and its log says why. Runs land in `<out>/<task>/<algo>/<seed>/` (what
+`shoulder-bench leaderboard --runs <out>` reads). A finished run (metrics.json with at least the frames asked for) is
+skipped, and an interrupted one continues from its checkpoint, so a sweep is resumed by running it again. A failed run
+is reported with the end of its log and makes the sweep exit non-zero; the other runs still finish.
+
+On Ray (`--ray ADDRESS`; `local` starts a private local instance, `auto` joins the cluster this machine is in, or
+`ray://HOST:10001` connects a client) each run executes on a worker in a temporary folder: the run folder travels
+there (so an interrupted run resumes) and back, so the driver needs no shared file system. Workers need shoulder-bench
+installed, e.g. `pip install "shoulder-bench[ray]"` in the cluster's image.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from concurrent.futures import ThreadPoolExecutor, as_completed
+from pathlib import Path
+
+LOG = "train.log"
+SUMMARY = "sweep.json"
+LOG_TAIL = 20  # lines of a failed run's log in the report
+
+
+@dataclasses.dataclass(frozen=True)
+class Job:
+    task: str
+    algo: str
+    seed: int
+    frames: int
+    eval_every: int
+    config: str | None = None  # JSON text of the algorithm's config overrides
+
+    @property
+    def name(self) -> str:
+        return f"{self.task}/{self.algo}/{self.seed}"
+
+    def command(self, out: Path) -> list[str]:
+        cmd = [sys.executable, "-m", "shoulder_bench.cli", "train", "--task", self.task, "--algo", self.algo,
+               "--seed", str(self.seed), "--frames", str(self.frames), "--eval-every", str(self.eval_every),
+               "--out", str(out), "--resume"]
+        if self.config is not None:
+            path = out / "sweep_config.json"
+            path.write_text(self.config)
+            cmd += ["--config", str(path)]
+        return cmd
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("sweep", help="train a grid of tasks x algorithms x seeds (local pool, or Ray with --ray)")
+    p.add_argument("--tasks", nargs="+", required=True)
+    p.add_argument("--algos", nargs="+", required=True, help="ppo, dqn, bdq; pairs that do not fit a task are skipped")
+    p.add_argument("--seeds", nargs="+", type=int, default=[0])
+    p.add_argument("--frames", type=int, default=None, help="budget per run (default: each algorithm's default)")
+    p.add_argument("--eval-every", type=int, default=100_000, help="frames between test-set evaluations")
+    p.add_argument("--config", action="append", default=[], metavar="ALGO=FILE",
+                   help="JSON config overrides for one algorithm (repeatable), as for `train --config`")
+    p.add_argument("--out", type=Path, default=Path("runs/sweep"))
+    p.add_argument("--workers", type=int, default=None,
+                   help="runs at once on the local pool (default: one per two cores; each run steps on 2 threads)")
+    p.add_argument("--ray", default=None, metavar="ADDRESS", help="run on Ray: local, auto or ray://HOST:PORT")
+    p.add_argument("--cpus-per-run", type=float, default=2.0, help="Ray CPUs reserved per run")
+    p.set_defaults(func=_run)
+
+
+def grid(tasks, algos, seeds, frames: int | None = None, eval_every: int = 100_000,
+         configs: dict[str, str] | None = None) -> tuple[list[Job], list[str]]:
+    """(jobs, skipped pairs): every fitting task x algo pair with every seed."""
+    from shoulder_bench.cli_train import ALGOS, DEFAULT_FRAMES, check_task
+    from shoulder_bench.tasks import _check
+
+    configs = configs or {}
+    tasks = [_check(t) for t in tasks]  # unknown names: KeyError listing the tasks
+    bad = sorted(set(algos) - set(ALGOS))
+    if bad:
+        raise ValueError(f"unknown algorithm(s) {bad}; choose from {', '.join(ALGOS)}")
+    if not seeds or len(set(seeds)) != len(seeds):
+        raise ValueError(f"seeds {seeds}: give distinct seeds")
+    if frames is not None and frames <= 0:
+        raise ValueError(f"--frames {frames}: give a positive budget")
+    unused = sorted(set(configs) - set(algos))
+    if unused:
+        raise ValueError(f"--config given for {unused}, which are not in --algos {algos}")
+    jobs, skipped = [], []
+    for task in dict.fromkeys(tasks):
+        for algo in dict.fromkeys(algos):
+            try:
+                check_task(task, algo)
+            except ValueError:
+                skipped.append(f"{task} x {algo}")
+                continue
+            jobs += [Job(task, algo, s, frames or DEFAULT_FRAMES[algo], eval_every, configs.get(algo)) for s in seeds]
+    if not jobs:
+        raise ValueError(f"no task in {tasks} fits an algorithm in {algos} (ppo: continuous tasks; dqn: discrete "
+                         f"single-muscle; bdq: discrete)")
+    return jobs, skipped
+
+
+def read_configs(items: list[str]) -> dict[str, str]:
+    """{algo: JSON text} from ALGO=FILE items; the fields are checked now, before any run starts."""
+    from shoulder_bench.cli_train import ALGOS, algo_module, load_config
+
+    out = {}
+    for item in items:
+        algo, sep, path = item.partition("=")
+        if not sep or algo not in ALGOS:
+            raise ValueError(f"--config {item!r}: write ALGO=FILE with ALGO one of {', '.join(ALGOS)}, "
+                             f"e.g. ppo=ppo.json")
+        load_config(algo_module(algo)[1], Path(path))  # unreadable file or unknown field: ValueError naming it
+        out[algo] = Path(path).read_text()
+    return out
+
+
+def is_finished(job: Job, root: Path) -> bool:
+    from shoulder_bench.cli_train import finished_metrics
+
+    return finished_metrics(root / job.name, job.task, job.algo, job.frames) is not None
+
+
+def run_job(job: Job, folder: Path) -> dict:
+    """Train `job` in a child process writing to `folder`; {"rc", "wall_s", "metrics" or None}."""
+    folder.mkdir(parents=True, exist_ok=True)
+    env = dict(os.environ, PYTHONUNBUFFERED="1", TQDM_MININTERVAL="10")  # a progress line every 10 s in the log
+    cmd = job.command(folder)
+    t0 = time.perf_counter()
+    with (folder / LOG).open("a") as log:
+        log.write(f"$ {' '.join(cmd)}\n")
+        log.flush()
+        rc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, env=env, stdin=subprocess.DEVNULL).returncode
+    metrics_path = folder / "metrics.json"
+    metrics = json.loads(metrics_path.read_text()) if rc == 0 and metrics_path.exists() else None
+    return {"rc": rc, "wall_s": round(time.perf_counter() - t0, 1), "metrics": metrics}
+
+
+# --- Ray: each run in a worker's temporary folder, the run folder shipped both ways -----------------------------------
+def pack(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()} \
+        if folder.is_dir() else {}
+
+
+def unpack(files: dict[str, bytes], folder: Path) -> None:
+    for rel, data in files.items():
+        path = folder / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.name + ".part")
+        tmp.write_bytes(data)
+        os.replace(tmp, path)
+
+
+def run_job_remote(job: Job, files: dict[str, bytes]) -> tuple[dict, dict[str, bytes]]:
+    """On a Ray worker: unpack the run folder, train, return the result and the folder's files."""
+    with tempfile.TemporaryDirectory(prefix="shoulder_bench_") as tmp:
+        folder = Path(tmp) / "run"
+        unpack(files, folder)
+        result = run_job(job, folder)
+        return result | {"host": os.uname().nodename}, pack(folder)
+
+
+def _ray_results(jobs: list[Job], root: Path, address: str, cpus_per_run: float):
+    try:
+        import ray
+    except ModuleNotFoundError:
+        raise ValueError('--ray needs Ray: pip install "shoulder-bench[ray]"') from None
+    kwargs = {"address": address, "log_to_driver": False}
+    if address == "local":
+        kwargs["include_dashboard"] = False
+    ray.init(**kwargs)
+    try:
+        available = ray.cluster_resources().get("CPU", 0)
+        cpus = min(cpus_per_run, available) if available else cpus_per_run  # a 1-CPU node still takes runs
+        remote = ray.remote(num_cpus=cpus, max_retries=0)(run_job_remote)
+        pending = {remote.remote(job, pack(root / job.name)): job for job in jobs}
+        while pending:
+            done, _ = ray.wait(list(pending), num_returns=1)
+            job = pending.pop(done[0])
+            try:
+                result, files = ray.get(done[0])
+                unpack(files, root / job.name)
+            except Exception as exc:  # the worker died or could not run the job
+                (root / job.name).mkdir(parents=True, exist_ok=True)
+                with (root / job.name / LOG).open("a") as log:
+                    log.write(f"Ray task failed: {exc!r}\n")
+                result = {"rc": -1, "wall_s": None, "metrics": None}
+            yield job, result
+    finally:
+        ray.shutdown()
+
+
+def _local_results(jobs: list[Job], root: Path, workers: int):
+    with ThreadPoolExecutor(max_workers=workers) as pool:  # threads that wait on one child process each
+        futures = {pool.submit(run_job, job, root / job.name): job for job in jobs}
+        for future in as_completed(futures):
+            yield futures[future], future.result()
+
+
+def sweep(jobs: list[Job], root: Path, workers: int | None = None, ray_address: str | None = None,
+          cpus_per_run: float = 2.0, progress: bool = True) -> list[dict]:
+    """Run the unfinished jobs; returns one record per job (status done, skipped or failed) and writes sweep.json."""
+    from tqdm import tqdm
+
+    root = Path(root)
+    root.mkdir(parents=True, exist_ok=True)
+    records = {job: {"run": job.name, "status": "skipped (finished)"} for job in jobs if is_finished(job, root)}
+    todo = [job for job in jobs if job not in records]
+    if workers is not None and workers < 1:
+        raise ValueError(f"--workers {workers}: give at least 1")
+    workers = workers or max(1, (os.cpu_count() or 2) // 2)
+    where = f"Ray ({ray_address})" if ray_address else f"{workers} local worker(s)"
+    print(f"sweep: {len(jobs)} runs, {len(records)} already finished, {len(todo)} to train on {where} -> {root}")
+    if not todo:
+        results = iter(())
+    elif ray_address:
+        results = _ray_results(todo, root, ray_address, cpus_per_run)
+    else:
+        results = _local_results(todo, root, workers)
+    with tqdm(total=len(todo), desc="sweep", unit="run", disable=not progress or not todo) as bar:
+        for job, result in results:
+            ok = result["rc"] == 0 and result["metrics"] is not None
+            records[job] = {"run": job.name, "status": "done" if ok else "failed", "rc": result["rc"],
+                            "wall_s": result["wall_s"], "log": str(root / job.name / LOG)}
+            if ok:
+                records[job] |= {"mae_deg": result["metrics"]["mae_deg"], "rmse_deg": result["metrics"]["rmse_deg"]}
+            if "host" in result:
+                records[job]["host"] = result["host"]
+            bar.update()
+            bar.write(f"{job.name}: " + (f"MAE {result['metrics']['mae_deg']:.2f} deg" if ok
+                                         else f"FAILED (exit {result['rc']}), log {root / job.name / LOG}"))
+    out = [records[job] for job in jobs]
+    from shoulder_bench.train.run import write_json
+
+    write_json(root / SUMMARY, out)
+    return out
+
+
+def report(records: list[dict]) -> str:
+    lines = []
+    for r in records:
+        extra = f"MAE {r['mae_deg']:.2f} deg, RMSE {r['rmse_deg']:.2f} deg" if "mae_deg" in r else ""
+        lines.append(f"{r['run']:<40} {r['status']:<20} {extra}")
+    for r in (r for r in records if r["status"] == "failed"):
+        log = Path(r["log"])
+        tail = log.read_text(errors="replace").splitlines()[-LOG_TAIL:] if log.exists() else ["(no log)"]
+        lines += ["", f"--- {r['run']} failed (exit {r['rc']}); last lines of {log}:"] + [f"  {x}" for x in tail]
+    return "\n".join(lines)
+
+
+def _run(args) -> int:
+    jobs, skipped = grid(args.tasks, args.algos, args.seeds, args.frames, args.eval_every,
+                         read_configs(args.config))
+    for pair in skipped:
+        print(f"skipping {pair}: the algorithm does not fit the task")
+    records = sweep(jobs, args.out, args.workers, args.ray, args.cpus_per_run)
+    print(report(records))
+    failed = sum(r["status"] == "failed" for r in records)
+    print(f"\n{len(records) - failed} of {len(records)} runs finished; summary in {args.out / SUMMARY}"
+          + (f"; {failed} FAILED (logs above)" if failed else "")
+          + (f"\nnext: shoulder-bench leaderboard --runs {args.out}" if failed < len(records) else ""))
+    return 1 if failed else 0
