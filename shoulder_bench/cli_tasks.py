@@ -1,21 +1,19 @@
-"""`shoulder-bench tasks` and `shoulder-bench demo`."""
+"""`shoulder-bench tasks` and `shoulder-bench demo` (the README's first command)."""
 from __future__ import annotations
 
 import time
 from pathlib import Path
 
-import numpy as np
-from tqdm import tqdm
-
 
 def add_parser(sub) -> None:
     p = sub.add_parser("tasks", help="list the tasks with a one-line description each")
     p.set_defaults(func=_tasks)
-    p = sub.add_parser("demo", help="the quick demo: feedback baseline, then train a small PPO agent and evaluate it")
+    p = sub.add_parser("demo", help="the quick demo: train a small PPO agent, evaluate it, rank it on a leaderboard "
+                                    "and render a video of it")
     p.add_argument("--task", default="abduction_4m")
-    p.add_argument("--episodes", type=int, default=3, help="test episodes for the feedback baseline")
     p.add_argument("--frames", type=int, default=200_000, help="PPO training frames")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seconds", type=float, default=8.0, help="length of the video")
     p.add_argument("--out", type=Path, default=Path("runs/demo"))
     p.set_defaults(func=_demo)
 
@@ -30,35 +28,27 @@ def _tasks(args) -> int:
 
 
 def _demo(args) -> int:
-    import shoulder_bench
-    from shoulder_bench.controllers import Feedback
+    """train -> evaluate -> leaderboard -> video, each step with a progress bar; everything lands in --out."""
+    from shoulder_bench.cli_train import check_task, train
+    from shoulder_bench.eval import leaderboard
+    from shoulder_bench.render import render_video
 
-    env = shoulder_bench.load(args.task, split="test", seed=args.seed)
-    controller = Feedback(env.task.muscles)
-    print(f"task {args.task}: {args.episodes} test episodes (20 s targets in [20, 100] deg) with a PD feedback "
-          f"controller on the change of activation")
-    errors, t0 = [], time.perf_counter()
-    for ep in tqdm(range(args.episodes), desc="episodes", unit="ep"):
-        ts, err = env.reset(), []
-        while not ts.last():
-            ts = env.step(controller(ts.observation))
-            err.append(ts.observation["angle"][0] - env.task.target_deg())
-        e = np.array(err)
-        errors.append(e)
-        tqdm.write(f"  episode {ep}: MAE {np.abs(e).mean():.2f} deg, RMSE {np.sqrt((e ** 2).mean()):.2f} deg, "
-                   f"{'crashed' if env.physics.failed() else 'ok'}")
-    e = np.concatenate(errors)
-    wall = time.perf_counter() - t0
-    print(f"feedback baseline: MAE {np.abs(e).mean():.2f} deg, RMSE {np.sqrt((e ** 2).mean()):.2f} deg over {len(e)} "
-          f"frames ({len(e) * 0.1 / wall:.0f} simulated s per wall s)")
-
-    from shoulder_bench.cli_train import train
-
+    check_task(args.task, "ppo")  # before any work: the demo trains PPO
+    t0 = time.perf_counter()
     run_dir = args.out / args.task / "ppo" / str(args.seed)
-    print(f"\ntraining PPO on {args.task} for {args.frames:,} frames -> {run_dir}")
+    print(f"[1/4] training PPO on {args.task} for {args.frames:,} frames -> {run_dir}")
     m = train(args.task, "ppo", frames=args.frames, seed=args.seed, out=run_dir, resume=True)
-    print(f"PPO on the fixed test set (100 trajectories of 20 s): MAE {m['mae_deg']:.2f} deg, RMSE "
-          f"{m['rmse_deg']:.2f} deg, crashes {m['crashes']}; {m['frames']:,} frames in {m['wall_s']:.0f} s")
-    print(f"paper (their FEM model, PPO-4): MAE 5.15 deg, RMSE 6.64 deg. Re-evaluate with: shoulder-bench eval "
-          f"--policy {run_dir}")
+    print(f"[2/4] evaluated on the fixed test set (100 trajectories of 20 s): MAE {m['mae_deg']:.2f} deg, RMSE "
+          f"{m['rmse_deg']:.2f} deg, crashes {m['crashes']}; {m['frames']:,} frames in {m['wall_s']:.0f} s of "
+          f"training (the paper's PPO-4 on their model: MAE 5.15 deg, RMSE 6.64 deg)")
+    print("[3/4] leaderboard: this run next to the shipped agents, the reference controller and the paper")
+    board = leaderboard.write(leaderboard.collect(args.out, pretrained=True, progress=True), args.out / "leaderboard")
+    print(board["md"].read_text())
+    video = args.out / "demo.mp4"
+    print(f"[4/4] rendering {args.seconds:g} s of the trained agent on a test target -> {video}")
+    info = render_video(video, policy=str(run_dir), seconds=args.seconds, width=480, height=360, progress=True)
+    print(f"\ndone in {time.perf_counter() - t0:.0f} s. Wrote:\n  {run_dir} (the run: policy.pt, metrics.json, "
+          f"TensorBoard)\n  {board['md']}, {board['csv'].name}, {board['html'].name}\n  {info['path']} "
+          f"({info['frames']} frames, {info['width']}x{info['height']}, MAE {info['mae_deg']:.2f} deg on its target)"
+          f"\nnext: shoulder-bench eval --policy {run_dir} --trajectories combing")
     return 0
