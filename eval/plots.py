@@ -97,8 +97,11 @@ def _rollouts(specs: list[str], task: str | None, trajectories) -> list[tuple[st
 
 # --- figures ------------------------------------------------------------------------------------------------------
 def scalars(run: Path, tag: str) -> tuple[list[int], list[float]]:
+    import logging
+
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
+    logging.getLogger("tensorboard").setLevel(logging.ERROR)  # a resumed run purges its events after the checkpoint
     tb = Path(run) / "tb"
     if not tb.is_dir():
         raise FileNotFoundError(f"{run} has no tb/ folder: not a shoulder-bench run")
