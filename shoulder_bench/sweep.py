@@ -170,7 +170,10 @@ def _ray_results(jobs: list[Job], root: Path, address: str, cpus_per_run: float)
     kwargs = {"address": address, "log_to_driver": False}
     if address == "local":
         kwargs["include_dashboard"] = False
-    ray.init(**kwargs)
+    try:
+        ray.init(**kwargs)
+    except Exception as exc:  # ConnectionError, a bad address, a version mismatch ...
+        raise ValueError(f"--ray {address}: could not start or join Ray ({exc})") from exc
     try:
         available = ray.cluster_resources().get("CPU", 0)
         cpus = min(cpus_per_run, available) if available else cpus_per_run  # a 1-CPU node still takes runs
