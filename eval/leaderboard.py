@@ -43,16 +43,17 @@ def _mean_std(values) -> tuple[float, float]:
     return (float(v.mean()), float(v.std())) if v.size else (float("nan"), float("nan"))
 
 
-def _sources(runs: Path | None, pretrained: bool) -> list[tuple[Path | None, str, str]]:
-    """(run folder or None, policy spec, source label) for every policy on the board."""
+def _sources(runs: Path | None, pretrained: bool) -> list[tuple[Path, str, str]]:
+    """(metrics file, policy spec, source label) for every policy on the board."""
     from shoulder_bench.train.policy import pretrained_dir
 
     found = sorted(Path(runs).glob("*/*/*/metrics.json")) if runs is not None else []
     if runs is not None and not found:
         raise FileNotFoundError(f"{runs} holds no finished runs (runs/<task>/<algo>/<seed>/metrics.json)")
-    out = [(p.parent, str(p.parent), f"runs: {runs}") for p in found]
-    if pretrained or runs is None:
-        out += [(None, f"pretrained:{p.stem}", "shipped agent") for p in sorted(pretrained_dir().glob("*.pt"))]
+    out = [(p.parent / "metrics.json", str(p.parent), f"runs: {runs}") for p in found]
+    if pretrained or runs is None:  # each agent's record (its source run's metrics) lies beside it
+        out += [(p.with_suffix(".json"), f"pretrained:{p.stem}", "shipped agent")
+                for p in sorted(pretrained_dir().glob("*.pt"))]
     return out
 
 
@@ -72,7 +73,8 @@ def collect(runs: Path | None, pretrained: bool = False, progress: bool = False)
     """Rows (dicts with COLUMNS) for runs and/or the shipped agents, the reference controller and the paper.
 
     Every policy is evaluated now, on the fixed test set (recorded, for the qualitative measures) and on the combing
-    profile; frames to the paper's accuracy and wall time come from the runs' metrics.json."""
+    profile; frames to the paper's accuracy and wall time come from the runs' metrics.json (a shipped agent's from the
+    record beside it)."""
     from tqdm import tqdm
 
     from shoulder_bench.eval.reference import ReferenceController
@@ -81,9 +83,9 @@ def collect(runs: Path | None, pretrained: bool = False, progress: bool = False)
     test, combing = trajectories_for("test"), trajectories_for("combing")
     sources = _sources(runs, pretrained)
     groups: dict[tuple, list[dict]] = defaultdict(list)
-    for folder, spec, label in tqdm(sources, desc="evaluating", unit="policy", disable=not progress):
+    for record, spec, label in tqdm(sources, desc="evaluating", unit="policy", disable=not progress):
         policy, meta = load_policy(spec)
-        metrics = json.loads((folder / "metrics.json").read_text()) if folder else {}
+        metrics = json.loads(record.read_text()) if record.exists() else {}
         groups[(meta["task"], meta["algo"], label)].append(
             _score(policy, meta["task"], meta.get("muscle_model"), test, combing)
             | {"frames_to_paper": metrics.get("frames_to_paper_accuracy"), "wall_s": metrics.get("wall_s")})

@@ -77,6 +77,8 @@ def ship(results: dict) -> None:
         seed, out, m = min(runs, key=lambda r: r[2]["mae_deg"])
         shutil.copy(out / "policy.pt", dest / f"{name}.pt")
         record = {"source_run": str(out), "seed": seed, "mae_deg": m["mae_deg"], "rmse_deg": m["rmse_deg"],
-                  "crashes": m["crashes"], "per_trajectory_mae_deg": m["per_trajectory"]["mae_deg"]}
+                  "crashes": m["crashes"], "frames": m["frames"], "wall_s": m["wall_s"],
+                  "frames_to_paper_accuracy": m.get("frames_to_paper_accuracy"),
+                  "per_trajectory_mae_deg": m["per_trajectory"]["mae_deg"]}
         (dest / f"{name}.json").write_text(json.dumps(record, indent=1) + "\n")
         print(f"shipped {name}: seed {seed}, test MAE {m['mae_deg']:.2f} deg")
