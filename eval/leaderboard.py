@@ -30,6 +30,13 @@ SAME_SHARE = 0.05  # shares closer than 5 points: no clear early/late difference
 TEXT = ("task", "algo", "source", "seeds", "crashes")  # the columns that are not (mean, std) pairs
 
 
+def paper_errors(task: str, algo: str | None) -> tuple[float, float] | None:
+    """The paper's test (MAE, RMSE) for `algo` on `task`, where the paper ran that algorithm on that task."""
+    if algo not in ("ppo", "dqn"):
+        return None
+    return next(((p["test_mae"], p["test_rmse"]) for p in PAPER if p["task"] == task), None)
+
+
 def add_parser(sub) -> None:
     p = sub.add_parser("leaderboard", help="compare runs (or the pretrained agents), the reference and the paper")
     p.add_argument("--runs", type=Path, default=None, help="a folder of runs (runs/<task>/<algo>/<seed>)")
@@ -181,7 +188,7 @@ def _figure(rows: list[dict]) -> str:
 
     ranked = [r for r in rows if "per_trajectory_mae" in r]
     groups = [(f"{r['algo'].upper() if r['algo'] in ('ppo', 'dqn', 'bdq') else r['algo']} · {r['task']}"
-               + (f" ({r['source']})" if r["source"] != "model-based" else ""), r["task"],
+               + (f" ({r['source']})" if r["source"] != "model-based" else ""), paper_errors(r["task"], r["algo"]),
                np.array(r["per_trajectory_mae"]), np.array(r["per_trajectory_rmse"])) for r in ranked]
     fig, axes = plt.subplots(1, 3, figsize=(15, 0.45 * len(groups) + 1.8), sharey=True,
                              gridspec_kw={"width_ratios": [2, 2, 1.2]})

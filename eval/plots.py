@@ -21,7 +21,6 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 MUSCLE_COLOURS = {"ssp": "tab:orange", "isp": "tab:green", "dmi": "tab:red", "ld": "tab:purple"}
-PAPER_MEANS = {"abduction_ssp_discrete": (3.70, 5.78), "abduction_ssp": (4.00, 5.36), "abduction_4m": (5.15, 6.64)}
 
 
 def add_parser(sub) -> None:
@@ -83,15 +82,15 @@ def _label(spec: str, meta: dict, task: str) -> str:
     return f"{meta.get('algo', 'policy').upper()} · {shown}"
 
 
-def _rollouts(specs: list[str], task: str | None, trajectories) -> list[tuple[str, str, dict]]:
-    """(label, task, recorded evaluation) per policy."""
+def _rollouts(specs: list[str], task: str | None, trajectories) -> list[tuple[str, str, str, dict]]:
+    """(label, task, algorithm, recorded evaluation) per policy."""
     from shoulder_bench.eval.evaluate import evaluate, policy_for
 
     out = []
     for spec in specs:
         policy, meta, t = policy_for(spec, task if spec == "reference" else None)
-        out.append((_label(spec, meta, t), t, evaluate(policy, t, trajectories, muscle_model=meta.get("muscle_model"),
-                                                       record=True)))
+        m = evaluate(policy, t, trajectories, muscle_model=meta.get("muscle_model"), record=True)
+        out.append((_label(spec, meta, t), t, meta.get("algo"), m))
     return out
 
 
@@ -146,7 +145,7 @@ def plot_trajectory(specs: list[str], out: Path, task: str | None = None, trajec
     runs = _rollouts(specs, task, [pool[index]])
     fig, axes = plt.subplots(2, len(runs), figsize=(4.2 * len(runs) + 0.5, 5.2), sharex=True, squeeze=False,
                              gridspec_kw={"height_ratios": [3, 2]})
-    for col, (label, t, m) in enumerate(runs):
+    for col, (label, t, _, m) in enumerate(runs):
         tr = m["trace"]
         time = (np.arange(tr["angle_deg"].shape[1]) + 1) * FRAME_S
         top, bottom = axes[0, col], axes[1, col]
@@ -165,15 +164,15 @@ def plot_trajectory(specs: list[str], out: Path, task: str | None = None, trajec
     return save(fig, out)
 
 
-def error_boxes(ax_mae, ax_rmse, groups: list[tuple[str, str, np.ndarray, np.ndarray]]) -> None:
-    """Box plots of per-trajectory MAE and RMSE, one box per (label, task, mae, rmse); the paper's means as diamonds."""
+def error_boxes(ax_mae, ax_rmse, groups: list[tuple[str, tuple | None, np.ndarray, np.ndarray]]) -> None:
+    """Box plots of per-trajectory MAE and RMSE, one box per (label, the paper's (MAE, RMSE) or None, mae, rmse); the
+    paper's means as diamonds."""
     labels = [g[0] for g in groups]
     for ax, col, name in ((ax_mae, 2, "MAE"), (ax_rmse, 3, "RMSE")):
         ax.boxplot([g[col] for g in groups], orientation="horizontal", tick_labels=labels, showfliers=True,
                    flierprops={"markersize": 3})
         marked = False
-        for y, g in enumerate(groups, start=1):
-            paper = PAPER_MEANS.get(g[1]) if g[0].split(" ·")[0] in ("PPO", "DQN") else None
+        for y, (_, paper, _, _) in enumerate(groups, start=1):
             if paper:
                 ax.plot(paper[col - 2], y, "D", color="gray", ms=6,
                         label=None if marked else "paper mean (their model)")
@@ -188,10 +187,11 @@ def error_boxes(ax_mae, ax_rmse, groups: list[tuple[str, str, np.ndarray, np.nda
 def plot_errors(specs: list[str], out: Path, task: str | None = None) -> list[Path]:
     checked(out)
     from shoulder_bench.eval.evaluate import trajectories_for
+    from shoulder_bench.eval.leaderboard import paper_errors
 
     runs = _rollouts(specs, task, trajectories_for("test"))
-    groups = [(label, t, np.array(m["per_trajectory"]["mae_deg"]), np.array(m["per_trajectory"]["rmse_deg"]))
-              for label, t, m in runs]
+    groups = [(label, paper_errors(t, algo), np.array(m["per_trajectory"]["mae_deg"]),
+               np.array(m["per_trajectory"]["rmse_deg"])) for label, t, algo, m in runs]
     fig, (a, b) = plt.subplots(1, 2, figsize=(10, 0.45 * len(groups) + 1.6), sharey=True)
     error_boxes(a, b, groups)
     a.invert_yaxis()  # the first policy on top
@@ -207,7 +207,7 @@ def plot_activations(spec: str, out: Path, task: str | None = None, bin_deg: flo
     from shoulder_bench.eval.measures import EARLY_DEG
     from shoulder_bench.tasks import TASKS
 
-    ((label, t, m),) = _rollouts([spec], task, trajectories_for("test"))
+    ((label, t, _, m),) = _rollouts([spec], task, trajectories_for("test"))
     muscles = TASKS[t][0]
     tr = m["trace"]
     ok = ~np.isnan(tr["angle_deg"])
