@@ -1,8 +1,10 @@
 """Loading the shoulder model and the process-global muscle callback.
 
 MuJoCo's `mjcb_act_gain` / `mjcb_act_bias` are process-global. Two facts shape this module:
-- While a Python callback is installed, *compiling* any model with `user` actuators fails ("Python exception raised":
-  the bindings cannot wrap the half-built model). `compile_model` therefore suspends the callbacks while compiling.
+- While a Python callback is installed, *compiling* a model with `user` actuators fails ("Python exception raised":
+  the bindings cannot wrap the half-built model). `compile_model` therefore compiles the actuators as plain fixed-gain
+  ones and makes them `user` actuators afterwards (the compiled model is the same, array for array): nothing global
+  changes, so models can be built in several threads at once, also while other threads step theirs.
 - Several models (and copies of them) may live in one process. Each model carries its force law's id in
   `actuator_user[:, 0]` (column 1 is the muscle's column in that law), so the one installed callback finds the law of
   whatever model it is called for; an unknown id gives zero force rather than an exception inside MuJoCo.
@@ -14,7 +16,6 @@ state keyed by `id()` (checked against a weak reference) instead of slower attri
 """
 from __future__ import annotations
 
-import contextlib
 import itertools
 import weakref
 from pathlib import Path
@@ -36,23 +37,25 @@ _models: dict[int, _ModelEntry] = {}  # id(MjModel) -> what the callback needs f
 _datas: dict[int, _DataEntry] = {}  # id(MjData) -> views and the forces of the current evaluation
 
 
-@contextlib.contextmanager
-def callbacks_suspended():
-    """Temporarily remove the actuator callbacks (needed to compile models with `user` actuators)."""
-    saved = (mujoco.get_mjcb_act_gain(), mujoco.get_mjcb_act_bias())
-    mujoco.set_mjcb_act_gain(None)
-    mujoco.set_mjcb_act_bias(None)
-    try:
-        yield
-    finally:
-        mujoco.set_mjcb_act_gain(saved[0])
-        mujoco.set_mjcb_act_bias(saved[1])
-
-
 def compile_model(path: Path | str = MODEL_PATH) -> mujoco.MjModel:
-    """Compile an MJCF file with the muscle callbacks suspended."""
-    with callbacks_suspended():
-        return mujoco.MjModel.from_xml_path(str(path))
+    """Compile an MJCF file whose actuators may be `user` ones while the muscle callbacks are installed (thread-safe).
+
+    The `user` gains and biases are compiled as fixed gain / no bias, so that compiling never calls the callbacks, and
+    set back to `user` in the compiled model.
+    """
+    spec = mujoco.MjSpec.from_file(str(path))
+    user_gain, user_bias = [], []
+    for k, act in enumerate(spec.actuators):
+        if act.gaintype == mujoco.mjtGain.mjGAIN_USER:
+            act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+            user_gain.append(k)
+        if act.biastype == mujoco.mjtBias.mjBIAS_USER:
+            act.biastype = mujoco.mjtBias.mjBIAS_NONE
+            user_bias.append(k)
+    m = spec.compile()
+    m.actuator_gaintype[user_gain] = mujoco.mjtGain.mjGAIN_USER
+    m.actuator_biastype[user_bias] = mujoco.mjtBias.mjBIAS_USER
+    return m
 
 
 class _ModelEntry:
@@ -98,16 +101,18 @@ def _data_entry(d: mujoco.MjData) -> _DataEntry:
     return e
 
 
-_current: list = [None, None, None, None]  # the last (model, data, model entry, data entry): the common case
+# the last (model, data, model entry, data entry), the common case; one tuple, replaced whole, so that a thread never
+# reads another thread's half-written entry
+_current: list = [(None, None, None, None)]
 
 
 def _entries(m, d):
-    cur = _current
+    cur = _current[0]
     if m is cur[0] and d is cur[1]:
         return cur[2], cur[3]
     e = _model_entry(m)
     s = None if e is None else _data_entry(d)
-    cur[:] = [m, d, e, s]
+    _current[0] = (m, d, e, s)
     return e, s
 
 
@@ -134,9 +139,11 @@ def _bias(m, d, i):
 
 
 def install_callbacks() -> None:
-    """Install the muscle callbacks (idempotent)."""
-    mujoco.set_mjcb_act_gain(_gain)
-    mujoco.set_mjcb_act_bias(_bias)
+    """Install the muscle callbacks (idempotent: once installed, nothing changes)."""
+    if mujoco.get_mjcb_act_gain() is not _gain:
+        mujoco.set_mjcb_act_gain(_gain)
+    if mujoco.get_mjcb_act_bias() is not _bias:
+        mujoco.set_mjcb_act_bias(_bias)
 
 
 def attach_law(m: mujoco.MjModel, law) -> None:
@@ -150,7 +157,7 @@ def attach_law(m: mujoco.MjModel, law) -> None:
     m.actuator_user[:, 0] = law_id
     m.actuator_user[:, 1] = [law.muscles.index(x) if x in law.muscles else -1 for x in names]
     _models.pop(id(m), None)
-    _current[:] = [None, None, None, None]
+    _current[0] = (None, None, None, None)
 
 
 def law_of(m: mujoco.MjModel):

@@ -116,3 +116,52 @@ def test_moment_arms_are_continuous():
     fine = np.arange(-10.0, 160.0 + 1e-9, 0.25)
     for name, r in moment_arms(fine).items():
         assert np.abs(np.diff(r)).max() < 5e-4, name
+
+
+def test_compiled_model_equals_a_plain_compile():
+    """compile_model (user actuators compiled as fixed ones, then switched back) gives MuJoCo's own model exactly."""
+    saved = mujoco.get_mjcb_act_gain(), mujoco.get_mjcb_act_bias()
+    mujoco.set_mjcb_act_gain(None)
+    mujoco.set_mjcb_act_bias(None)
+    try:
+        plain = mujoco.MjModel.from_xml_path(str(shoulder_bench.SCENE_PATH))
+    finally:
+        mujoco.set_mjcb_act_gain(saved[0])
+        mujoco.set_mjcb_act_bias(saved[1])
+    ours = compile_model(shoulder_bench.SCENE_PATH)
+    compared = 0
+    for name in dir(plain):
+        a = getattr(plain, name, None) if not name.startswith("_") else None
+        if isinstance(a, np.ndarray):
+            assert np.array_equal(a, getattr(ours, name), equal_nan=True), name
+            compared += 1
+    assert compared > 100 and np.all(ours.actuator_gaintype == mujoco.mjtGain.mjGAIN_USER)
+    assert str(ours.opt) == str(plain.opt)
+
+
+def test_building_and_stepping_in_8_threads_at_once():
+    """8 threads build an environment and step it at the same moment, 4 times: no engine error, the same result."""
+    import threading
+
+    action = np.array([0.005, 0.0, 0.005, -0.005])
+    ref = shoulder_bench.load("abduction_4m", seed=0)
+    ref.reset()
+    expected = ref.step(action).observation["angle"][0]
+    def build_and_step(start, results, errors):
+        try:
+            start.wait()
+            env = shoulder_bench.load("abduction_4m", seed=0)
+            env.reset()
+            results.append(env.step(action).observation["angle"][0])
+        except Exception as exc:  # noqa: BLE001 - collected and reported by the assertion below
+            errors.append(repr(exc))
+
+    for _ in range(4):
+        start, results, errors = threading.Barrier(8), [], []
+        threads = [threading.Thread(target=build_and_step, args=(start, results, errors)) for _ in range(8)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        assert errors == [] and len(results) == 8
+        assert np.allclose(results, expected, rtol=0, atol=1e-9)
