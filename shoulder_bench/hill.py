@@ -32,7 +32,7 @@ def passive_force_length(l_norm: np.ndarray) -> np.ndarray:
 
 
 def build_tables(folder: Path | None = None, path: Path | str = MODEL_PATH) -> list[Path]:
-    from shoulder_bench.muscle import table_path
+    from shoulder_bench.muscle import replacing, table_path
 
     lengths, arms = tendon_geometry(ANGLE_GRID_DEG, path)
     written = []
@@ -49,11 +49,9 @@ def build_tables(folder: Path | None = None, path: Path | str = MODEL_PATH) -> l
                          "activation": ACTIVATION_GRID.tolist()},
                 "code_version": CODE_VERSION}
         out = table_path(muscle, "hill", folder)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = out.with_suffix(".tmp.npz")
-        np.savez(tmp, angle_deg=ANGLE_GRID_DEG, activation=ACTIVATION_GRID, force_N=f,
-                 torque_Nm=f * arms[muscle][:, None], moment_arm_m=arms[muscle], meta=np.array(json.dumps(meta)))
-        tmp.replace(out)
+        with replacing(out) as tmp:
+            np.savez(tmp, angle_deg=ANGLE_GRID_DEG, activation=ACTIVATION_GRID, force_N=f,
+                     torque_Nm=f * arms[muscle][:, None], moment_arm_m=arms[muscle], meta=np.array(json.dumps(meta)))
         written.append(out)
     return written
 

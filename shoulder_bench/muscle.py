@@ -19,7 +19,9 @@ vmax = 10 optimal fibre lengths per second (shortening lowers force to zero at v
 """
 from __future__ import annotations
 
+import contextlib
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -41,6 +43,20 @@ def table_path(muscle: str, muscle_model: str, folder: Path | None = None) -> Pa
 
 
 REBUILD = {"fem": "shoulder-bench fem build", "hill": "python -m shoulder_bench.hill"}
+
+
+@contextlib.contextmanager
+def replacing(path: Path):
+    """Write `path` atomically: yields a temporary path beside it (same suffix) that replaces `path` (os.replace)
+    when the block succeeds and is removed when it fails, so a failure never leaves a half-written file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 @dataclass(frozen=True)
@@ -115,7 +131,7 @@ class ForceLaw:
         self.muscles = tuple(t.muscle for t in tables)
         grid = tables[0].angle_deg
         for t in tables:
-            if not np.array_equal(t.angle_deg, grid):
+            if t.angle_deg.shape != grid.shape or not np.allclose(t.angle_deg, grid, rtol=0.0, atol=1e-9):
                 raise ValueError("all muscle tables of a law must share one angle grid")
         levels = np.unique(np.concatenate([t.activation for t in tables]))
         force = np.stack([np.stack([np.interp(levels, t.activation, row) for row in t.force_N]) for t in tables],
