@@ -75,33 +75,27 @@ def _check_angles(a: np.ndarray, where: str, rows) -> None:
     if bad.size:
         k = bad[0]
         row = f" row {rows[k]}" if rows is not None else f" sample {k}"
-        raise ValueError(f"{where}:{row}: angle {a[k]!r} deg is not a finite number within the model's range "
+        raise ValueError(f"{where}:{row}: angle {float(a[k]):g} deg is not a finite number within the model's range "
                          f"[{lo:g}, {hi:g}] deg; fix or drop that row")
 
 
 def load_csv(path: Path | str) -> list[Trajectory]:
-    """Read `time_s,angle_deg[,trajectory]` (any sampling rate) and resample each trajectory to 0.1 s frames."""
+    """Read `time_s,angle_deg[,trajectory]` (any sampling rate) and resample each trajectory to 0.1 s frames.
+
+    UTF-8 with or without a byte-order mark (Excel's "CSV UTF-8"); spaces around header names and values are ignored.
+    """
     path = Path(path)
     if not path.exists():
         raise ValueError(f"trajectory file {path} does not exist")
-    with path.open(newline="") as f:
-        reader = csv.DictReader(f)
-        cols = reader.fieldnames or []
-        missing = [c for c in ("time_s", "angle_deg") if c not in cols]
-        if missing:
-            raise ValueError(f"{path}: missing column(s) {missing} (found {cols}); the header must be "
-                             f"`time_s,angle_deg` with an optional `trajectory` column")
-        groups: dict[str, tuple[list, list, list]] = {}
-        for row_no, row in enumerate(reader, start=2):
-            key = row.get("trajectory") or "0"
-            g = groups.setdefault(key, ([], [], []))
-            try:
-                g[0].append(float(row["time_s"]))
-                g[1].append(float(row["angle_deg"]))
-            except (TypeError, ValueError):
-                raise ValueError(f"{path}: row {row_no}: time_s={row.get('time_s')!r}, angle_deg="
-                                 f"{row.get('angle_deg')!r} are not numbers; fix that row") from None
-            g[2].append(row_no)
+    if path.is_dir():
+        raise ValueError(f"trajectory path {path} is a directory, not a CSV file; give the file itself")
+    try:
+        groups = _read_rows(path)
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start}); save it as UTF-8 CSV "
+                         f"(Excel: \"CSV UTF-8\")") from None
+    except csv.Error as exc:
+        raise ValueError(f"{path}: not a readable CSV file ({exc})") from None
     if not groups:
         raise ValueError(f"{path}: no data rows below the header")
     out = []
@@ -121,6 +115,33 @@ def load_csv(path: Path | str) -> list[Trajectory]:
             raise ValueError(f"{where}: spans {t[-1] - t[0]:g} s; a trajectory needs at least 0.1 s (two frames)")
         out.append(from_array(np.interp(frames + t[0], t, a), name=f"{path.name}:{key}"))
     return out
+
+
+def _read_rows(path: Path) -> dict[str, tuple[list, list, list]]:
+    """(times, angles, CSV row numbers) per trajectory key; ValueError naming the file for a bad header or row."""
+    with path.open(newline="", encoding="utf-8-sig") as f:
+        reader = csv.reader(f)
+        cols = [c.strip() for c in next(reader, [])]
+        missing = [c for c in ("time_s", "angle_deg") if c not in cols]
+        if missing:
+            raise ValueError(f"{path}: missing column(s) {missing} (found {cols}); the header must be "
+                             f"`time_s,angle_deg` with an optional `trajectory` column")
+        it, ia = cols.index("time_s"), cols.index("angle_deg")
+        ik = cols.index("trajectory") if "trajectory" in cols else None
+        groups: dict[str, tuple[list, list, list]] = {}
+        for row_no, row in enumerate(reader, start=2):
+            row = [c.strip() for c in row] + [""] * len(cols)  # short rows read as empty cells
+            if not any(row):
+                continue  # a blank line
+            g = groups.setdefault((row[ik] if ik is not None else "") or "0", ([], [], []))
+            try:
+                g[0].append(float(row[it]))
+                g[1].append(float(row[ia]))
+            except ValueError:
+                raise ValueError(f"{path}: row {row_no}: time_s={row[it]!r}, angle_deg={row[ia]!r} are not numbers; "
+                                 f"fix that row") from None
+            g[2].append(row_no)
+    return groups
 
 
 def write_csv(path: Path | str, trajectories: list[Trajectory]) -> None:

@@ -89,3 +89,39 @@ def test_combing_profile_is_synthetic_and_shaped_like_the_paper():
     assert 95 <= c.angle_deg.max() <= 103 and c.angle_deg.min() >= 19.9
     up = c.angle_deg > 80
     assert np.count_nonzero(np.diff(up.astype(int)) == 1) == 2  # two lifts
+
+
+def test_csv_utf8_bom_and_spaces_around_header_names(tmp_path):
+    """Excel's "CSV UTF-8" starts with a byte-order mark; hand-written headers often carry spaces."""
+    p = tmp_path / "excel.csv"
+    p.write_bytes("\ufefftrajectory , time_s ,  angle_deg\r\n a , 0 , 30\r\na,1,40\r\n\r\n".encode("utf-8"))
+    (tr,) = T.load_csv(p)
+    assert tr.frames == 10 and tr.angle_deg[0] == pytest.approx(30.0) and tr.angle_deg[-1] == pytest.approx(40.0)
+    assert tr.name == "excel.csv:a"
+
+
+def test_non_utf8_csv_names_the_file_and_the_encoding(tmp_path):
+    p = tmp_path / "latin1.csv"
+    p.write_bytes("time_s,angle_deg,épaule\n0,30,1\n1,40,1\n".encode("latin-1"))  # what an old Excel writes
+    with pytest.raises(ValueError, match=r"latin1\.csv: not UTF-8 text \(invalid continuation byte at byte 17\); "
+                                         r"save it as UTF-8 CSV"):
+        T.load_csv(p)
+
+
+def test_csv_messages_print_plain_numbers(tmp_path):
+    with pytest.raises(ValueError, match=r"row 3: angle nan deg is not") as info:
+        T.load_csv(_write(tmp_path, "time_s,angle_deg\n0,30\n0.1,nan\n"))
+    assert "np.float64" not in str(info.value)
+    with pytest.raises(ValueError, match=r"sample 2: angle 500 deg is not"):
+        T.from_array([30, 40, 500])
+
+
+def test_a_directory_as_trajectory_is_a_clear_error(tmp_path):
+    import shoulder_bench
+
+    with pytest.raises(ValueError, match=rf"trajectory path {tmp_path} is a directory, not a CSV file"):
+        T.load_csv(tmp_path)
+    with pytest.raises(ValueError, match=rf"trajectory path {tmp_path} is a directory"):
+        shoulder_bench.load("abduction_4m", trajectory=tmp_path)
+    with pytest.raises(ValueError, match=rf"trajectory path {tmp_path} is a directory"):
+        shoulder_bench.load("abduction_4m", trajectory=str(tmp_path))
