@@ -11,6 +11,9 @@ ACTION_LIMIT = 0.01  # max change of activation per frame (1 %)
 LEVELS = 21  # discrete actions: -1, -0.9, ..., +1 %
 DEFAULT_ALPHA = 0.1  # reward per percent-point of activation change (the paper leaves alpha open)
 DEFAULT_OMEGA_MAX = 0.009  # |omega| above this counts as a "bang-bang" extreme (the paper leaves it open)
+MAX_ALPHA = 1e6  # the largest alpha accepted: with REWARD_ACTION_CAP it keeps every reward finite
+REWARD_ACTION_CAP = 1.0  # the reward sees |omega| up to the whole activation range: finite for any finite action
+VALID_MARGIN_DEG = 5.0  # the arm beyond the joint limits by more than this = the simulation has failed (a crash)
 CRASH_ERROR_DEG = 180.0  # a crash costs 180 deg for every frame left: never better than tracking badly
 OBSERVATION_KEYS = ("angle", "angular_velocity", "target_angle", "target_velocity", "activations")
 
@@ -23,12 +26,13 @@ def level_to_delta(index) -> np.ndarray:
 def reward(angle_deg, target_deg, sent, alpha: float, omega_max: float, tracking_only: bool) -> np.ndarray:
     """Equation (1) of the paper, per batch row: -|phi - phi_hat| - alpha sum|omega| (in %) - mean 1{|omega| > max}.
 
-    `sent` is the action the agent sent (before clipping), shape (B, n).
+    `sent` is the action the agent sent (before clipping to +-ACTION_LIMIT), shape (B, n); the penalty sees it capped
+    at +-REWARD_ACTION_CAP (a change of the whole activation range), so a finite action gives a finite reward.
     """
     r = -np.abs(np.atleast_1d(angle_deg) - np.atleast_1d(target_deg)).astype(float)
     if tracking_only:
         return r
-    mag = np.abs(np.atleast_2d(sent))
+    mag = np.minimum(np.abs(np.atleast_2d(sent)), REWARD_ACTION_CAP)
     return r - alpha * 100.0 * mag.sum(axis=1) - np.count_nonzero(mag > omega_max, axis=1) / mag.shape[1]
 
 

@@ -19,8 +19,10 @@ from dm_env import specs
 from shoulder_bench import protocol, statics, trajectory
 from shoulder_bench.anatomy import JOINT_RANGE_DEG
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL, SCENE_PATH, attach_law, compile_model, install_callbacks, law_of
+from shoulder_bench.tasks import options as opt
 
-VALID_MARGIN_DEG = 5.0  # beyond the joint limits by more than this = the simulation has failed
+VALID_MARGIN_DEG = protocol.VALID_MARGIN_DEG  # beyond the joint limits by more than this = the simulation has failed
+INITS = ("hold", "zero")  # start at rest on the target with the holding activations, or with none
 
 
 class Physics(_Physics):
@@ -63,28 +65,31 @@ class Physics(_Physics):
 def make_physics(muscles, muscle_model: str) -> Physics:
     from shoulder_bench.muscle import ForceLaw
 
+    law = ForceLaw.load(muscle_model, muscles=muscles)  # checks muscle_model before the (slower) compile
     model = compile_model(SCENE_PATH)
-    attach_law(model, ForceLaw.load(muscle_model, muscles=muscles))
+    attach_law(model, law)
     install_callbacks()
     return Physics.from_model(wrapper.MjModel(model))
 
 
 class Abduction(control.Task):
-    """Track a target abduction angle with the activations of `muscles`."""
+    """Track a target abduction angle with the activations of `muscles`. Bad options raise ValueError naming the
+    option and what it accepts (`shoulder_bench.tasks.options`)."""
 
     def __init__(self, muscles, discrete=False, split="train", trajectory_=None, tracking_only=None,
-                 alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", random=None):
+                 alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", random=None,
+                 **unknown):
         super().__init__()
-        if split not in trajectory.SPLITS:
-            raise ValueError(f"unknown split {split!r}; choose one of {sorted(trajectory.SPLITS)}")
-        if init not in ("hold", "zero"):
-            raise ValueError(f"unknown init {init!r}; choose 'hold' (start at rest on the target) or 'zero'")
+        opt.check_names(unknown)
         self.muscles = tuple(muscles)
         self.discrete = bool(discrete)
-        self.split = split
+        self.split = opt.choice("split", split, tuple(trajectory.SPLITS))
         self.fixed = trajectory_
-        self.tracking_only = len(self.muscles) == 1 if tracking_only is None else bool(tracking_only)
-        self.alpha, self.omega_max, self.init = float(alpha), float(omega_max), init
+        tracking_only = opt.flag("tracking_only", tracking_only)
+        self.tracking_only = len(self.muscles) == 1 if tracking_only is None else tracking_only
+        self.alpha = opt.number("alpha", alpha, 0.0, protocol.MAX_ALPHA)
+        self.omega_max = opt.number("omega_max", omega_max, 0.0)
+        self.init = opt.choice("init", init, INITS)
         self.reseed(random)
         self.target: trajectory.Trajectory | None = None
         self.frame = 0
@@ -92,7 +97,7 @@ class Abduction(control.Task):
         self.law = None
 
     def reseed(self, seed) -> None:
-        self.rng = np.random.default_rng(seed)
+        self.rng = np.random.default_rng(opt.seed(seed))
 
     # --- dm_control Task API -------------------------------------------------------------------------------------
     def action_spec(self, physics):
@@ -167,10 +172,11 @@ class Abduction(control.Task):
 
 def make_env(muscles, discrete=False, split="train", seed=None, trajectory=None, muscle_model=DEFAULT_MUSCLE_MODEL,
              **options) -> control.Environment:
-    """A dm_control Environment of the abduction task (see `Abduction` for the options)."""
+    """A dm_control Environment of the abduction task (see `Abduction` for the options); options are checked before
+    the model is built."""
     target = _as_trajectory(trajectory)
-    physics = make_physics(tuple(muscles), muscle_model)
     task = Abduction(muscles, discrete=discrete, split=split, trajectory_=target, random=seed, **options)
+    physics = make_physics(tuple(muscles), muscle_model)
     return control.Environment(physics, task, time_limit=float("inf"), control_timestep=protocol.FRAME_S)
 
 
