@@ -1,4 +1,6 @@
-"""The tasks as gymnasium environments: `gymnasium.make("ShoulderBench/<name>-v0", **options)`."""
+"""The tasks as gymnasium environments: `gymnasium.make("ShoulderBench/<name>-v0", **options)`, and batched:
+`gymnasium.make_vec("ShoulderBench/<name>-v0", num_envs=N, vectorization_mode="vector_entry_point", **options)`
+(`shoulder_bench.tasks.gym_vector`)."""
 from __future__ import annotations
 
 import gymnasium as gym
@@ -6,11 +8,39 @@ import numpy as np
 from gymnasium import spaces
 
 from shoulder_bench import protocol
+from shoulder_bench.anatomy import JOINT_RANGE_DEG
+from shoulder_bench.protocol import VALID_MARGIN_DEG
+from shoulder_bench.tasks import options as opt
+
+
+def observation_space(n: int) -> spaces.Box:
+    """Angle within the joint range plus the crash margin, target angle within the joint range, activations in [0, 1]
+    (degrees); the velocities have no bound."""
+    lo, hi = JOINT_RANGE_DEG
+    low = [lo - VALID_MARGIN_DEG, -np.inf, lo, -np.inf] + [0.0] * n
+    high = [hi + VALID_MARGIN_DEG, np.inf, hi, np.inf] + [1.0] * n
+    return spaces.Box(np.array(low, np.float32), np.array(high, np.float32), dtype=np.float32)
+
+
+def action_space(n: int, discrete: bool) -> spaces.Space:
+    if discrete:
+        return spaces.Discrete(protocol.LEVELS) if n == 1 else spaces.MultiDiscrete([protocol.LEVELS] * n)
+    return spaces.Box(-protocol.ACTION_LIMIT, protocol.ACTION_LIMIT, shape=(n,), dtype=np.float32)
+
+
+def in_space(obs: np.ndarray, space: spaces.Box) -> np.ndarray:
+    """float32 observations (rows or one) inside `space`: only the last observation of a crash can lie outside (the
+    arm past the margin, or a non-finite state); there NaN reads 0 and values are clipped to the bounds."""
+    obs = np.nan_to_num(np.asarray(obs, dtype=np.float32), nan=0.0, posinf=np.inf, neginf=-np.inf)
+    return np.clip(obs, space.low, space.high)
 
 
 class ShoulderEnv(gym.Env):
     """A gymnasium view of a dm_control shoulder task: flat float32 observation in the order
-    angle, angular_velocity, target_angle, target_velocity, activations (degrees, deg/s, [0, 1])."""
+    angle, angular_velocity, target_angle, target_velocity, activations (degrees, deg/s, [0, 1]).
+
+    `step()` before `reset()` or after the episode ended (terminated or truncated) raises gymnasium's `ResetNeeded`.
+    """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": int(1 / protocol.FRAME_S)}
 
@@ -21,16 +51,13 @@ class ShoulderEnv(gym.Env):
         self.env = load(name, **options)
         self.task = self.env.task
         n = len(self.task.muscles)
-        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(4 + n,), dtype=np.float32)
-        if self.task.discrete:
-            self.action_space = spaces.Discrete(protocol.LEVELS) if n == 1 else spaces.MultiDiscrete(
-                [protocol.LEVELS] * n)
-        else:
-            self.action_space = spaces.Box(-protocol.ACTION_LIMIT, protocol.ACTION_LIMIT, shape=(n,), dtype=np.float32)
+        self.observation_space = observation_space(n)
+        self.action_space = action_space(n, self.task.discrete)
         self.render_mode = render_mode
+        self._needs_reset = True
 
     def _obs(self, ts) -> np.ndarray:
-        return protocol.flatten(ts.observation)
+        return in_space(protocol.flatten(ts.observation), self.observation_space)
 
     def _info(self) -> dict:
         physics = self.env.physics
@@ -39,16 +66,22 @@ class ShoulderEnv(gym.Env):
                 "crashed": bool(physics.failed())}
 
     def reset(self, *, seed=None, options=None):
+        seed = opt.seed(seed)
         super().reset(seed=seed)
         if seed is not None:
             self.task.reseed(seed)
         ts = self.env.reset()
+        self._needs_reset = False
         return self._obs(ts), self._info()
 
     def step(self, action):
+        if self._needs_reset:
+            raise gym.error.ResetNeeded(f"{self.name}: the episode has ended (or never started); call reset() "
+                                        f"before step()")
         ts = self.env.step(action)
         terminated = ts.last() and ts.discount == 0.0
         truncated = ts.last() and not terminated
+        self._needs_reset = ts.last()
         return self._obs(ts), float(ts.reward), terminated, truncated, self._info()
 
     def render(self):
@@ -63,4 +96,5 @@ def register_all() -> None:
     for name in TASKS:
         env_id = f"ShoulderBench/{name}-v0"
         if env_id not in gym.registry:
-            gym.register(env_id, entry_point="shoulder_bench.tasks.gym_env:ShoulderEnv", kwargs={"name": name})
+            gym.register(env_id, entry_point="shoulder_bench.tasks.gym_env:ShoulderEnv", kwargs={"name": name},
+                         vector_entry_point="shoulder_bench.tasks.gym_vector:ShoulderVectorEnv")

@@ -165,3 +165,89 @@ def test_gymnasium_rgb_array_render_is_not_blank():
     env.reset(seed=0)
     img = env.render()
     assert img.shape == (480, 640, 3) and img.dtype == np.uint8 and img.std() > 10
+
+
+@pytest.mark.parametrize("wrapped", [False, True])
+def test_gymnasium_step_after_the_end_raises_reset_needed(wrapped):
+    env = gym.make("ShoulderBench/abduction_ssp-v0", trajectory=np.linspace(30, 31, 3))
+    env = env if wrapped else env.unwrapped
+    if not wrapped:
+        with pytest.raises(gym.error.ResetNeeded, match="reset"):
+            env.step(np.zeros(1, np.float32))  # before the first reset
+    env.reset(seed=0)
+    assert env.step(np.zeros(1, np.float32))[3] is False
+    assert env.step(np.zeros(1, np.float32))[3] is True  # truncated: the 2-frame target is done
+    with pytest.raises(gym.error.ResetNeeded, match="call reset"):
+        env.step(np.zeros(1, np.float32))
+    env.reset()
+    obs, r, term, trunc, _ = env.step(np.zeros(1, np.float32))
+    assert np.isfinite(r) and not term and not trunc
+
+
+def test_gymnasium_observation_bounds_are_finite_where_known():
+    space = gym.make("ShoulderBench/abduction_4m-v0").observation_space
+    lo, hi = shoulder_bench.anatomy.JOINT_RANGE_DEG
+    assert np.allclose(space.low[[0, 2]], [lo - 5, lo]) and np.allclose(space.high[[0, 2]], [hi + 5, hi])
+    assert np.all(space.low[4:] == 0) and np.all(space.high[4:] == 1)
+    assert np.all(np.isinf(space.low[[1, 3]])) and np.all(np.isinf(space.high[[1, 3]]))
+
+
+def test_gymnasium_crash_observation_stays_in_the_space():
+    env = gym.make("ShoulderBench/abduction_4m-v0").unwrapped
+    env.reset(seed=0)
+    env.env.physics.data.qvel[0] = 1e4  # the arm leaves the model's range within the frame
+    obs, r, term, trunc, info = env.step(np.zeros(4, np.float32))
+    top = shoulder_bench.anatomy.JOINT_RANGE_DEG[1] + protocol.VALID_MARGIN_DEG
+    assert term and info["crashed"] and info["angle_deg"] > top
+    assert env.observation_space.contains(obs) and obs[0] == pytest.approx(top)
+
+
+def test_gymnasium_vector_entry_point_equals_the_single_env():
+    """make_vec's fast path: numpy batches, SAME_STEP autoreset, copy i = the single env reset with seed + i."""
+    from gymnasium.vector import AutoresetMode
+
+    n, seed = 4, 7
+    envs = gym.make_vec("ShoulderBench/abduction_4m-v0", num_envs=n, vectorization_mode="vector_entry_point")
+    assert type(envs.unwrapped).__name__ == "ShoulderVectorEnv"
+    assert envs.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
+    singles = [gym.make("ShoulderBench/abduction_4m-v0") for _ in range(n)]
+    obs, info = envs.reset(seed=seed)
+    first = np.array([e.reset(seed=seed + i)[0] for i, e in enumerate(singles)])
+    assert obs.shape == (n, 8) and obs.dtype == np.float32 and np.allclose(obs, first, rtol=0, atol=1e-4)
+    actions = np.random.default_rng(0).uniform(-0.012, 0.012, (100, n, 4)).astype(np.float32)
+    for a in actions:
+        obs, rew, term, trunc, info = envs.step(a)
+        assert envs.observation_space.contains(obs) and rew.dtype == np.float64
+        for i, env in enumerate(singles):
+            o, r, te, tr, inf = env.step(a[i])
+            assert r == pytest.approx(rew[i], abs=1e-7) and (te, tr) == (term[i], trunc[i])
+            if tr:
+                assert info["_final_obs"][i] and np.allclose(info["final_obs"][i], o, rtol=0, atol=1e-4)
+                assert info["final_info"]["angle_deg"][i] == pytest.approx(inf["angle_deg"], abs=1e-7)
+                assert info["final_info"]["target_deg"][i] == pytest.approx(inf["target_deg"], abs=1e-9)
+                o, inf = env.reset()  # the vector env has auto-reset this copy in the same step
+            else:
+                assert "final_obs" not in info
+            assert np.allclose(obs[i], o, rtol=0, atol=1e-4)
+            assert info["angle_deg"][i] == pytest.approx(inf["angle_deg"], abs=1e-7)
+            assert info["target_deg"][i] == pytest.approx(inf["target_deg"], abs=1e-9)
+    assert trunc.all() and not term.any()  # the 10 s train episodes end together, by time
+    envs.close()
+
+
+def test_gymnasium_vector_env_discrete_and_options():
+    envs = gym.make_vec("ShoulderBench/abduction_ssp_discrete-v0", num_envs=3, split="test")
+    assert type(envs.unwrapped).__name__ == "ShoulderVectorEnv"  # the default vectorization for these ids
+    obs, _ = envs.reset(seed=0)
+    obs, rew, term, trunc, _ = envs.step(np.array([0, 10, 20]))
+    assert obs.shape == (3, 5) and rew.shape == (3,) and np.all(np.isfinite(rew))
+    assert envs.unwrapped.batched.max_episode_length == 200
+    with pytest.raises(ValueError, match="seed must be None or an integer"):
+        envs.reset(seed="x")
+    envs.close()
+
+
+def test_gymnasium_reset_with_a_bad_seed():
+    env = gym.make("ShoulderBench/abduction_ssp-v0")
+    with pytest.raises(ValueError, match=r"seed must be None or an integer .*; got 'abc'"):
+        env.reset(seed="abc")
