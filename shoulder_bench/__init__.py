@@ -3,6 +3,7 @@
     import shoulder_bench
     env = shoulder_bench.load("abduction_4m", split="test", seed=0)      # dm_control
     env = gymnasium.make("ShoulderBench/abduction_4m-v0")                # gymnasium
+    envs = gymnasium.make_vec("ShoulderBench/abduction_4m-v0", 64)       # gymnasium VectorEnv, batched simulator
 """
 import os
 
