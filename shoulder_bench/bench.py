@@ -25,11 +25,12 @@ def add_parser(sub) -> None:
     p = sub.add_parser("bench", help="throughput and memory, measured side by side")
     p.add_argument("--quick", action="store_true", help="tiny budget (CI): small batches, few frames")
     p.add_argument("--json", action="store_true", help="print one JSON object as the last line")
-    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--repeats", type=int, default=3, help="measurements of each, the best kept (at least 1)")
     p.set_defaults(func=run)
 
 
 def batched_rate(venv, frames: int, gen: torch.Generator) -> float:
+    check_counts(frames=frames)
     n = venv.num_envs
     for _ in range(2):
         venv.step(torch.rand(n, venv.num_actions, generator=gen) * 0.02 - 0.01)
@@ -41,6 +42,7 @@ def batched_rate(venv, frames: int, gen: torch.Generator) -> float:
 
 def bare_rate(n: int, frames: int, nthread: int = 2) -> tuple[float, float]:
     """Frames/s of plain MuJoCo on the same model (fixed gains, no callback), and its physics step."""
+    check_counts(num_envs=n, frames=frames, nthread=nthread)
     from shoulder_bench.model import compile_model
 
     m = compile_model()
@@ -82,9 +84,18 @@ def gym_rate(seconds: float) -> float:
     return steps * 0.1 / (time.perf_counter() - t)
 
 
+def check_counts(prefix: str = "", **counts) -> None:
+    """Each count (repeats, copies, frames, threads) is a whole number of at least 1; checked before any work.
+    prefix: "--" where the names are command-line options."""
+    for name, value in counts.items():
+        if not float(value).is_integer() or value < 1:
+            raise ValueError(f"{prefix}{name} {value}: give a whole number of at least 1")
+
+
 def run(args) -> int:
     import shoulder_bench
 
+    check_counts("--", repeats=args.repeats)
     torch.set_num_threads(2)
     sizes, frames = ((16, 64), 5) if args.quick else ((64, 256, 1024), 20)
     repeats = 1 if args.quick else args.repeats

@@ -3,7 +3,10 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.metadata
+import signal
 import sys
+import threading
 
 # modules that provide add_parser(subparsers); a missing optional one is skipped
 COMMANDS = ["shoulder_bench.cli_tasks", "shoulder_bench.bench", "shoulder_bench.cli_train", "shoulder_bench.reproduce",
@@ -13,6 +16,8 @@ COMMANDS = ["shoulder_bench.cli_tasks", "shoulder_bench.bench", "shoulder_bench.
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="shoulder-bench", description="Shoulder muscle-control benchmark.")
+    parser.add_argument("--version", action="version",
+                        version=f"%(prog)s {importlib.metadata.version('shoulder-bench')}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:
         try:
@@ -25,14 +30,26 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt  # SIGTERM stops a command as Ctrl-C does: its cleanup runs, the exit code is 130
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    in_main = threading.current_thread() is threading.main_thread()  # signal handlers live in the main thread
+    previous = signal.signal(signal.SIGTERM, _interrupt) if in_main else None
     try:
         return int(args.func(args) or 0)
     except (ValueError, KeyError, FileNotFoundError) as exc:  # errors a user can cause: say what and how to fix
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"shoulder-bench {args.command}: error: {msg}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(f"shoulder-bench {args.command}: interrupted", file=sys.stderr)
+        return 130
+    finally:
+        if in_main:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":
