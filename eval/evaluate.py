@@ -5,14 +5,30 @@ frames count with the crash error of 180 deg, so a policy can never look better 
 """
 from __future__ import annotations
 
+import zipfile
+from pathlib import Path
+
 import numpy as np
 import torch
 
 from shoulder_bench import protocol
 from shoulder_bench.trajectory import Trajectory, load_csv, load_test_set
 
+CSV_COLUMNS = "time_s,angle_deg[,trajectory]"
+TRAJECTORY_SETS = f"test (the fixed 100), combing (synthetic) or a CSV file with columns {CSV_COLUMNS}"
 
-def trajectories_for(spec: str) -> list[Trajectory]:
+
+def check_csv(path: Path | str, option: str = "--trajectories", valid: str = TRAJECTORY_SETS) -> Path:
+    """`path` as a trajectory CSV, checked before any work: an existing file, not a folder."""
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{option} {path} is a directory; give a CSV file with columns {CSV_COLUMNS}")
+    if not path.exists():
+        raise FileNotFoundError(f"{option} {path}: no such trajectory file; give {valid}")
+    return path
+
+
+def trajectories_for(spec: str, option: str = "--trajectories") -> list[Trajectory]:
     """"test" (the fixed 100), "combing" (synthetic, when shipped) or a CSV path."""
     if spec == "test":
         return load_test_set()
@@ -20,7 +36,49 @@ def trajectories_for(spec: str) -> list[Trajectory]:
         from shoulder_bench.trajectory import combing
 
         return [combing()]
-    return load_csv(spec)
+    return load_csv(check_csv(spec, option))
+
+
+def run_config(run: Path | str) -> dict:
+    """A training run's config.json (task, algo, seed, frames, muscle_model, config[, options, model_version]),
+    checked: a clear error naming the folder and what is missing or wrong."""
+    import json
+
+    run = Path(run)
+    if not run.is_dir():
+        raise FileNotFoundError(f"run folder {run} does not exist" if not run.exists() else
+                                f"{run} is not a run folder (runs/<task>/<algo>/<seed>/)")
+    path = run / "config.json"
+    if not path.is_file():
+        raise FileNotFoundError(f"run folder {run} has no config.json: not a shoulder-bench run")
+    try:
+        cfg = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path} is unreadable or not valid JSON ({exc})") from None
+    missing = [k for k in ("task", "algo", "seed") if not isinstance(cfg, dict) or k not in cfg]
+    if missing:
+        raise ValueError(f"{path} lacks {', '.join(missing)}: not a config.json written by shoulder-bench train")
+    return cfg
+
+
+def check_policy_file(spec: str) -> Path:
+    """The file behind a policy spec, checked to be an exported (TorchScript) policy rather than, say, a training
+    checkpoint or some other file; the loader still checks its contents."""
+    from shoulder_bench.train.policy import resolve
+
+    path = resolve(spec)
+    fix = "give a run folder, its policy.pt, pretrained:NAME or reference"
+    try:
+        with zipfile.ZipFile(path) as z:
+            names = z.namelist()
+    except (zipfile.BadZipFile, OSError):
+        raise ValueError(f"policy file {path} is not a policy (not a TorchScript file written by shoulder-bench "
+                         f"train); {fix}") from None
+    if not any(n.endswith("/constants.pkl") for n in names):
+        what = "a training checkpoint" if any(n.endswith("/data.pkl") for n in names) else "not a TorchScript policy"
+        raise ValueError(f"policy file {path} is {what}, not an exported policy (shoulder-bench train writes that as "
+                         f"policy.pt when the run finishes); {fix}")
+    return path
 
 
 def policy_for(spec: str, task: str | None = None) -> tuple[object, dict, str]:
@@ -35,6 +93,7 @@ def policy_for(spec: str, task: str | None = None) -> tuple[object, dict, str]:
         return ReferenceController(task), {"task": task, "algo": "reference"}, task
     from shoulder_bench.train.policy import load_policy
 
+    check_policy_file(spec)
     policy, meta = load_policy(spec)
     if task is not None and _check(task) != meta.get("task"):
         raise ValueError(f"policy {spec} was trained on {meta.get('task')!r}, not {task!r}; pass --task "
@@ -43,14 +102,14 @@ def policy_for(spec: str, task: str | None = None) -> tuple[object, dict, str]:
 
 
 def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: str | None = None,
-             record: bool = False) -> dict:
+             record: bool = False, options: dict | None = None) -> dict:
     """Roll out `policy` (float32 obs (B, 4 + n) -> actions) greedily on every trajectory; return the metrics.
 
     record=True adds "trace": angle_deg, target_deg (B, T) and activation (B, T, n) after each frame, NaN after a
-    trajectory's end or crash."""
+    trajectory's end or crash. options: further task options (alpha, init, ...), as the policy was trained with."""
     import shoulder_bench
 
-    options = {} if muscle_model is None else {"muscle_model": muscle_model}
+    options = dict(options or {}) | ({} if muscle_model is None else {"muscle_model": muscle_model})
     venv = shoulder_bench.make_vec(task, len(trajectories), seed=0, trajectory=list(trajectories), **options)
     n = len(trajectories)
     frames = venv.episode_frames.copy()

@@ -3,14 +3,18 @@
 - curves RUN...                  reward and test-MAE curves of training runs (Figs. 2, 4)
 - trajectory --policy SPEC...    one test trajectory: target, angle and each muscle's activation (Figs. 3, 5)
 - errors --policy SPEC...        per-trajectory MAE and RMSE on the test set as box plots, one box per policy (Fig. 3)
-- activations --policy SPEC      four-muscle activation patterns against the abduction angle over the test set (Fig. 5)
+- activations --policy SPEC...   activation patterns against the abduction angle over the test set, a row per policy
+                                 (Fig. 5)
 - paper [--runs DIR]             all of them from the shipped agents (and curves from runs) into one folder
 
 SPEC is a policy file, a run folder, `pretrained:NAME` or `reference` (the model-based controller, on --task).
+Every input is checked and every policy loaded before any rollout; each figure is written to a temporary name and
+renamed when complete, so a failure leaves nothing behind.
 """
 from __future__ import annotations
 
-import json
+import os
+from functools import partial
 from pathlib import Path
 
 import matplotlib
@@ -30,13 +34,12 @@ def add_parser(sub) -> None:
     c.add_argument("runs", nargs="+", type=Path, help="run folders (runs/<task>/<algo>/<seed>)")
     c.add_argument("--out", type=Path, default=Path("curves.png"))
     c.set_defaults(func=lambda a: _done(plot_curves(a.runs, a.out)))
-    for name, text, many in (("trajectory", "one trajectory: target, angle and activations, per policy", True),
-                             ("errors", "per-trajectory MAE and RMSE on the test set, box plots per policy", True),
-                             ("activations", "activation of each muscle against the abduction angle", False)):
+    for name, text in (("trajectory", "one trajectory: target, angle and activations, per policy"),
+                       ("errors", "per-trajectory MAE and RMSE on the test set, box plots per policy"),
+                       ("activations", "activation of each muscle against the abduction angle, a row per policy")):
         f = what.add_parser(name, help=text)
-        f.add_argument("--policy", required=True, action="append" if many else "store",
-                       help="policy file, run folder, pretrained:NAME or reference" + (" (repeat for more)" if many
-                                                                                       else ""))
+        f.add_argument("--policy", required=True, action="append",
+                       help="policy file, run folder, pretrained:NAME or reference (repeat for more)")
         f.add_argument("--task", default=None, help="the task for `reference` (default abduction_4m)")
         f.add_argument("--out", type=Path, default=Path(f"{name}.png"))
         if name == "trajectory":
@@ -50,22 +53,63 @@ def add_parser(sub) -> None:
 
 
 def checked(out: Path | str) -> Path:
-    """The figure's path, checked before any work: a .png, .svg or .pdf name."""
+    """The figure's path, checked before any work: a .png, .svg or .pdf name that is not a folder."""
     out = Path(out)
+    if out.is_dir():
+        raise ValueError(f"--out {out} is a directory; give a file name such as {out / 'figure.png'}")
     if out.suffix.lower() not in (".png", ".svg", ".pdf"):
-        raise ValueError(f"{out}: give a .png, .svg or .pdf file name")
+        raise ValueError(f"--out {out}: give a .png, .svg or .pdf file name")
     return out
 
 
+def checked_dir(out_dir: Path | str, option: str = "--out-dir") -> Path:
+    """An output folder, checked before any work: absent (it is created when writing) or a folder."""
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise ValueError(f"{option} {out_dir} is an existing file, not a folder; give a folder name")
+    return out_dir
+
+
+def replace_all(contents: list[tuple[Path, object]]) -> list[Path]:
+    """Write each (path, writer) pair atomically: writer(tmp) fills a temporary name beside the path, and once all
+    are complete they are renamed into place; on any failure the temporary files are removed and nothing is left."""
+    tmps = []
+    try:
+        for path, writer in contents:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+            tmps.append(tmp)
+            writer(tmp)
+        for (path, _), tmp in zip(contents, tmps):
+            os.replace(tmp, path)
+    finally:
+        for tmp in tmps:
+            tmp.unlink(missing_ok=True)
+    return [path for path, _ in contents]
+
+
+def _paths(out: Path) -> list[Path]:
+    return [out] + ([out.with_suffix(".svg")] if out.suffix.lower() != ".svg" else [])
+
+
+def save_all(figures: list[tuple[object, Path | str]]) -> list[Path]:
+    """Write every (figure, out) as `out` and the same figure as SVG beside it, all renamed into place at the end."""
+    try:
+        jobs = [(path, partial(_savefig, fig, path.suffix[1:].lower()))
+                for fig, out in figures for path in _paths(checked(out))]
+        return replace_all(jobs)
+    finally:
+        for fig, _ in figures:
+            plt.close(fig)
+
+
+def _savefig(fig, fmt: str, path: Path) -> None:
+    fig.savefig(path, dpi=120, format=fmt)
+
+
 def save(fig, out: Path | str) -> list[Path]:
-    """Write `out` and the same figure as SVG beside it."""
-    out = checked(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    paths = [out] + ([out.with_suffix(".svg")] if out.suffix.lower() != ".svg" else [])
-    for path in paths:
-        fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return paths
+    """Write `out` and the same figure as SVG beside it (atomically)."""
+    return save_all([(fig, out)])
 
 
 def _done(*paths) -> int:
@@ -82,20 +126,30 @@ def _label(spec: str, meta: dict, task: str) -> str:
     return f"{meta.get('algo', 'policy').upper()} · {shown}"
 
 
+def _policies(specs: list[str], task: str | None) -> list[tuple[str, object, dict, str]]:
+    """(spec, policy, metadata, task) per policy, all loaded (and so checked) before any rollout."""
+    from shoulder_bench.eval.evaluate import policy_for
+
+    return [(spec, *policy_for(spec, task if spec == "reference" else None)) for spec in specs]
+
+
 def _rollouts(specs: list[str], task: str | None, trajectories) -> list[tuple[str, str, str, dict]]:
     """(label, task, algorithm, recorded evaluation) per policy."""
-    from shoulder_bench.eval.evaluate import evaluate, policy_for
+    from shoulder_bench.eval.evaluate import evaluate
 
-    out = []
-    for spec in specs:
-        policy, meta, t = policy_for(spec, task if spec == "reference" else None)
-        m = evaluate(policy, t, trajectories, muscle_model=meta.get("muscle_model"), record=True)
-        out.append((_label(spec, meta, t), t, meta.get("algo"), m))
-    return out
+    return [(_label(spec, meta, t), t, meta.get("algo"),
+             evaluate(policy, t, trajectories, muscle_model=meta.get("muscle_model"), record=True,
+                      options=meta.get("options")))
+            for spec, policy, meta, t in _policies(specs, task)]
 
 
 # --- figures ------------------------------------------------------------------------------------------------------
-def scalars(run: Path, tag: str) -> tuple[list[int], list[float]]:
+CURVES = ("train/mean_return", "test/mae_deg")
+
+
+def scalars(run: Path, tag: str | None = None):
+    """The (steps, values) of `tag` in a run's TensorBoard logs ([], [] if never logged); without tag, a dict of
+    every tag in CURVES."""
     import logging
 
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
@@ -103,23 +157,40 @@ def scalars(run: Path, tag: str) -> tuple[list[int], list[float]]:
     logging.getLogger("tensorboard").setLevel(logging.ERROR)  # a resumed run purges its events after the checkpoint
     tb = Path(run) / "tb"
     if not tb.is_dir():
-        raise FileNotFoundError(f"{run} has no tb/ folder: not a shoulder-bench run")
+        raise FileNotFoundError(f"run folder {run} has no tb/ folder (TensorBoard logs): not a shoulder-bench run")
     acc = EventAccumulator(str(tb), size_guidance={"scalars": 0})
     acc.Reload()
-    if tag not in acc.Tags()["scalars"]:
-        return [], []
-    events = acc.Scalars(tag)
-    return [e.step for e in events], [e.value for e in events]
+    have = acc.Tags()["scalars"]
+
+    def series(t):
+        events = acc.Scalars(t) if t in have else []
+        return [e.step for e in events], [e.value for e in events]
+
+    return series(tag) if tag is not None else {t: series(t) for t in CURVES}
+
+
+def _curves(run: Path) -> tuple[str, dict]:
+    """(legend label, the CURVES series) of one run, checked: a clear error naming the run and what is missing."""
+    from shoulder_bench.eval.evaluate import run_config
+
+    cfg = run_config(run)
+    series = scalars(run)
+    if not any(steps for steps, _ in series.values()):
+        raise ValueError(f"run folder {run}: tb/ holds none of the training curves ({', '.join(CURVES)}); has the "
+                         f"run logged anything yet?")
+    return f"{cfg['algo']} {cfg['task']} seed {cfg['seed']}", series
 
 
 def plot_curves(runs: list[Path], out: Path) -> list[Path]:
     checked(out)
+    return save(_curves_figure([_curves(Path(run)) for run in runs]), out)  # every run checked before drawing
+
+
+def _curves_figure(curves: list[tuple[str, dict]]):
     fig, (ax_r, ax_e) = plt.subplots(1, 2, figsize=(11, 4))
-    for run in runs:
-        cfg = json.loads((Path(run) / "config.json").read_text())
-        label = f"{cfg['algo']} {cfg['task']} seed {cfg['seed']}"
-        ax_r.plot(*scalars(run, "train/mean_return"), label=label)
-        ax_e.plot(*scalars(run, "test/mae_deg"), marker="o", label=label)
+    for label, series in curves:
+        ax_r.plot(*series["train/mean_return"], label=label)
+        ax_e.plot(*series["test/mae_deg"], marker="o", label=label)
     ax_r.set(xlabel="frames", ylabel="mean episode return (recent training episodes)", title="training reward")
     ax_e.axhline(5.15, color="gray", ls="--", lw=1, label="paper PPO-4 (their model)")
     ax_e.set(xlabel="frames", ylabel="test-set MAE (deg)", title="fixed test set (100 trajectories)", yscale="log")
@@ -128,12 +199,16 @@ def plot_curves(runs: list[Path], out: Path) -> list[Path]:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
     fig.tight_layout()
-    return save(fig, out)
+    return fig
 
 
 def plot_trajectory(specs: list[str], out: Path, task: str | None = None, trajectories: str = "test",
                     index: int = 0) -> list[Path]:
     """Per policy, one column: target and angle (top), each muscle's activation (bottom)."""
+    return save(_trajectory_figure(specs, out, task, trajectories, index), out)
+
+
+def _trajectory_figure(specs, out, task=None, trajectories="test", index=0):
     checked(out)
     from shoulder_bench.eval.evaluate import trajectories_for
     from shoulder_bench.protocol import FRAME_S
@@ -161,7 +236,7 @@ def plot_trajectory(specs: list[str], out: Path, task: str | None = None, trajec
             ax.legend(fontsize=7, loc="upper right")
     fig.suptitle(f"{trajectories} trajectory {index}", fontsize=10)
     fig.tight_layout()
-    return save(fig, out)
+    return fig
 
 
 def error_boxes(ax_mae, ax_rmse, groups: list[tuple[str, tuple | None, np.ndarray, np.ndarray]]) -> None:
@@ -185,6 +260,10 @@ def error_boxes(ax_mae, ax_rmse, groups: list[tuple[str, tuple | None, np.ndarra
 
 
 def plot_errors(specs: list[str], out: Path, task: str | None = None) -> list[Path]:
+    return save(_errors_figure(specs, out, task), out)
+
+
+def _errors_figure(specs, out, task=None):
     checked(out)
     from shoulder_bench.eval.evaluate import trajectories_for
     from shoulder_bench.eval.leaderboard import paper_errors
@@ -197,61 +276,84 @@ def plot_errors(specs: list[str], out: Path, task: str | None = None) -> list[Pa
     a.invert_yaxis()  # the first policy on top
     fig.suptitle("fixed test set: 100 trajectories of 20 s", fontsize=10)
     fig.tight_layout()
-    return save(fig, out)
+    return fig
 
 
-def plot_activations(spec: str, out: Path, task: str | None = None, bin_deg: float = 5.0) -> list[Path]:
-    """Mean activation of each muscle against the angle (left), and each muscle's share of the sum (right)."""
+def plot_activations(specs: list[str] | str, out: Path, task: str | None = None, bin_deg: float = 5.0) -> list[Path]:
+    """Per policy, one row: mean activation of each muscle against the angle (left), and each muscle's share of the
+    sum (right)."""
+    return save(_activations_figure([specs] if isinstance(specs, str) else list(specs), out, task, bin_deg), out)
+
+
+def _activations_figure(specs: list[str], out: Path, task: str | None = None, bin_deg: float = 5.0):
     checked(out)
     from shoulder_bench.eval.evaluate import trajectories_for
     from shoulder_bench.eval.measures import EARLY_DEG
     from shoulder_bench.tasks import TASKS
 
-    ((label, t, _, m),) = _rollouts([spec], task, trajectories_for("test"))
-    muscles = TASKS[t][0]
-    tr = m["trace"]
-    ok = ~np.isnan(tr["angle_deg"])
-    q, a = tr["angle_deg"][ok], tr["activation"][ok]
-    edges = np.arange(np.floor(q.min() / bin_deg) * bin_deg, q.max() + bin_deg, bin_deg)
-    which = np.digitize(q, edges) - 1
-    used = [b for b in range(len(edges) - 1) if np.count_nonzero(which == b) >= 20]
-    centres = np.array([edges[b] + bin_deg / 2 for b in used])
-    mean = np.array([a[which == b].mean(axis=0) for b in used])
-    std = np.array([a[which == b].std(axis=0) for b in used])
-    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4))
-    for k, muscle in enumerate(muscles):
-        c = MUSCLE_COLOURS[muscle]
-        left.plot(centres, mean[:, k], color=c, label=muscle)
-        left.fill_between(centres, mean[:, k] - std[:, k], mean[:, k] + std[:, k], color=c, alpha=0.15)
-    share = mean / np.maximum(mean.sum(axis=1, keepdims=True), 1e-12)
-    right.stackplot(centres, share.T, labels=list(muscles), colors=[MUSCLE_COLOURS[x] for x in muscles], alpha=0.8)
-    left.set(xlabel="abduction angle (deg)", ylabel="activation (mean ± std over frames)",
-             title=f"{label}: activation against angle (test set)")
-    right.set(xlabel="abduction angle (deg)", ylabel="share of summed activation", ylim=(0, 1),
-              title="each muscle's share")
-    for ax in (left, right):
-        ax.axvline(EARLY_DEG, color="black", ls=":", lw=1)
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="upper left")
+    runs = _rollouts(specs, task, trajectories_for("test"))
+    fig, axes = plt.subplots(len(runs), 2, figsize=(11, 4 * len(runs)), squeeze=False)
+    for (label, t, _, m), (left, right) in zip(runs, axes):
+        muscles = TASKS[t][0]
+        tr = m["trace"]
+        ok = ~np.isnan(tr["angle_deg"])
+        q, a = tr["angle_deg"][ok], tr["activation"][ok]
+        edges = np.arange(np.floor(q.min() / bin_deg) * bin_deg, q.max() + bin_deg, bin_deg)
+        which = np.digitize(q, edges) - 1
+        used = [b for b in range(len(edges) - 1) if np.count_nonzero(which == b) >= 20]
+        centres = np.array([edges[b] + bin_deg / 2 for b in used])
+        mean = np.array([a[which == b].mean(axis=0) for b in used])
+        std = np.array([a[which == b].std(axis=0) for b in used])
+        for k, muscle in enumerate(muscles):
+            c = MUSCLE_COLOURS[muscle]
+            left.plot(centres, mean[:, k], color=c, label=muscle)
+            left.fill_between(centres, mean[:, k] - std[:, k], mean[:, k] + std[:, k], color=c, alpha=0.15)
+        share = mean / np.maximum(mean.sum(axis=1, keepdims=True), 1e-12)
+        right.stackplot(centres, share.T, labels=list(muscles), colors=[MUSCLE_COLOURS[x] for x in muscles],
+                        alpha=0.8)
+        left.set(xlabel="abduction angle (deg)", ylabel="activation (mean ± std over frames)",
+                 title=f"{label}: activation against angle (test set)")
+        right.set(xlabel="abduction angle (deg)", ylabel="share of summed activation", ylim=(0, 1),
+                  title="each muscle's share")
+        for ax in (left, right):
+            ax.axvline(EARLY_DEG, color="black", ls=":", lw=1)
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=7, loc="upper left")
     fig.tight_layout()
-    return save(fig, out)
+    return fig
+
+
+PAPER_TRAJECTORY = ["pretrained:dqn_ssp", "pretrained:ppo_ssp", "pretrained:ppo_4m", "pretrained:bdq_4m"]
+PAPER_ERRORS = ["pretrained:dqn_ssp", "pretrained:ppo_ssp", "pretrained:bdq_4m", "pretrained:ppo_4m", "reference"]
+
+
+def curve_runs(runs: Path | str) -> list[Path]:
+    """The seed-0 runs under `runs` (runs/<task>/<algo>/0) whose curves `plot paper` draws, checked before any work."""
+    runs = Path(runs)
+    if not runs.is_dir():
+        raise FileNotFoundError(f"--runs {runs}: " + ("no such folder" if not runs.exists() else "not a folder")
+                                + "; give a folder of runs (runs/<task>/<algo>/<seed>)")
+    found = sorted(p.parent for p in runs.glob("*/*/0/config.json") if (p.parent / "tb").is_dir())
+    if not found:
+        raise FileNotFoundError(f"--runs {runs} holds no seed-0 runs with TensorBoard logs (runs/<task>/<algo>/0/tb)")
+    return found
 
 
 def paper_figures(out_dir: Path, runs: Path | None = None) -> list[Path]:
     """The paper-style set from the shipped agents: Fig. 3 (DQN and PPO, one muscle, and PPO-4 on the same target),
-    the error distributions, Fig. 5's activation patterns, and training curves when runs are given."""
-    out_dir = Path(out_dir)
-    written = plot_trajectory(["pretrained:dqn_ssp", "pretrained:ppo_ssp", "pretrained:ppo_4m", "pretrained:bdq_4m"],
-                              out_dir / "trajectory.png")
-    written += plot_errors(["pretrained:dqn_ssp", "pretrained:ppo_ssp", "pretrained:bdq_4m", "pretrained:ppo_4m",
-                            "reference"], out_dir / "errors.png")
-    written += plot_activations("pretrained:ppo_4m", out_dir / "activations.png")
-    if runs is not None:
-        found = sorted(p.parent for p in Path(runs).glob("*/*/0/config.json") if (p.parent / "tb").is_dir())
-        if not found:
-            raise FileNotFoundError(f"{runs} holds no seed-0 runs with TensorBoard logs (runs/<task>/<algo>/0/tb)")
-        written += plot_curves(found, out_dir / "curves.png")
-    return written
+    the error distributions, Fig. 5's activation patterns, and training curves when runs are given. Every input is
+    checked first and the figures are written together at the end: a failure writes none."""
+    out_dir = checked_dir(out_dir)
+    found = curve_runs(runs) if runs is not None else []
+    curves = [_curves(run) for run in found]  # every run's config and logs checked before any rollout
+    _policies(sorted(set(PAPER_TRAJECTORY + PAPER_ERRORS)), None)  # every shipped agent loads
+    figures = [(_trajectory_figure(PAPER_TRAJECTORY, out_dir / "trajectory.png"), out_dir / "trajectory.png")]
+    figures.append((_errors_figure(PAPER_ERRORS, out_dir / "errors.png"), out_dir / "errors.png"))
+    figures.append((_activations_figure(["pretrained:ppo_4m"], out_dir / "activations.png"),
+                    out_dir / "activations.png"))
+    if curves:
+        figures.append((_curves_figure(curves), out_dir / "curves.png"))
+    return save_all(figures)
 
 
 def _figure(args) -> int:

@@ -67,12 +67,15 @@ def _render_cmd(args) -> int:
 # --- inputs -------------------------------------------------------------------------------------------------------
 def _check_out(out: Path | str, gif: bool) -> Path:
     out = Path(out)
+    if out.is_dir():  # before the suffix: a folder is not a file name missing its .mp4
+        raise ValueError(f"--out {out} is a directory; give a file name such as "
+                         f"{out / ('episode.gif' if gif else 'episode.mp4')}")
     if gif and out.suffix.lower() != ".gif":
         out = out.with_suffix(".gif")
     elif not gif and out.suffix.lower() != ".mp4":
         raise ValueError(f"output {out}: an mp4 file must end in .mp4 (or pass --gif for a GIF)")
     if out.is_dir():
-        raise ValueError(f"output {out} is a directory; give a file name such as {out / ('episode' + out.suffix)}")
+        raise ValueError(f"--out {out} is a directory; give a file name such as {out / ('episode' + out.suffix)}")
     parent = out.parent if str(out.parent) else Path(".")
     if not parent.is_dir():
         raise FileNotFoundError(f"output directory {parent} does not exist; create it (mkdir -p {parent}) or "
@@ -312,10 +315,11 @@ def render_video(out: Path | str, task: str | None = None, policy: str | None = 
         if isinstance(trajectory, traj_mod.Trajectory):
             target = trajectory
         else:
-            if not Path(trajectory).exists():
-                raise FileNotFoundError(f"trajectory file {trajectory} does not exist; give a CSV with columns "
-                                        f"time_s,angle_deg (or leave --trajectory out for a random test target)")
-            target = traj_mod.load_csv(trajectory)[0]
+            from shoulder_bench.eval.evaluate import CSV_COLUMNS, check_csv
+
+            path = check_csv(trajectory, "--trajectory", f"a CSV file with columns {CSV_COLUMNS}, or leave "
+                                                         f"--trajectory out for a random test target")
+            target = traj_mod.load_csv(path)[0]
 
     ctrl, task = _controller(policy, task)
     muscles = TASKS[task][0]

@@ -3,6 +3,8 @@ paper's numbers; `--ship` copies the best seed of each experiment into the packa
 from __future__ import annotations
 
 import json
+import math
+import os
 import shutil
 from pathlib import Path
 
@@ -30,9 +32,22 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
+def check_args(args) -> None:
+    """The inputs, checked before any training: a positive finite budget scale, folders and a table file that can
+    be written."""
+    if not (math.isfinite(args.frames_scale) and args.frames_scale > 0):
+        raise ValueError(f"--frames-scale {args.frames_scale}: give a positive number (e.g. 0.01 to smoke-test)")
+    if args.runs.exists() and not args.runs.is_dir():
+        raise ValueError(f"--runs {args.runs} is an existing file, not a folder; give a folder for the runs")
+    if args.table.is_dir():
+        raise ValueError(f"--table {args.table} is a directory; give a file name such as {args.table / 'table.md'}")
+
+
 def run(args) -> int:
     from shoulder_bench.cli_train import train
+    from shoulder_bench.eval.plots import replace_all
 
+    check_args(args)
     results = {}
     for name in args.experiments:
         task, algo, frames, _ = EXPERIMENTS[name]
@@ -42,8 +57,7 @@ def run(args) -> int:
             m = train(task, algo, frames=max(1, int(frames * args.frames_scale)), seed=seed, out=out, resume=True)
             results[name].append((seed, out, m))
     text = table(results)
-    args.table.parent.mkdir(parents=True, exist_ok=True)
-    args.table.write_text(text)
+    replace_all([(args.table, lambda tmp: tmp.write_text(text, encoding="utf-8"))])
     print(text)
     if args.ship:
         ship(results)
@@ -69,16 +83,20 @@ def table(results: dict) -> str:
 
 
 def ship(results: dict) -> None:
+    from shoulder_bench.eval.plots import replace_all
     from shoulder_bench.train.policy import pretrained_dir
 
     dest = pretrained_dir()
     dest.mkdir(parents=True, exist_ok=True)
     for name, runs in results.items():
         seed, out, m = min(runs, key=lambda r: r[2]["mae_deg"])
-        shutil.copy(out / "policy.pt", dest / f"{name}.pt")
+        tmp = dest / f".{name}.pt.tmp{os.getpid()}"
+        shutil.copy(out / "policy.pt", tmp)
+        os.replace(tmp, dest / f"{name}.pt")
         record = {"source_run": str(out), "seed": seed, "mae_deg": m["mae_deg"], "rmse_deg": m["rmse_deg"],
                   "crashes": m["crashes"], "frames": m["frames"], "wall_s": m["wall_s"],
                   "frames_to_paper_accuracy": m.get("frames_to_paper_accuracy"),
                   "per_trajectory_mae_deg": m["per_trajectory"]["mae_deg"]}
-        (dest / f"{name}.json").write_text(json.dumps(record, indent=1) + "\n")
+        text = json.dumps(record, indent=1) + "\n"
+        replace_all([(dest / f"{name}.json", lambda tmp, text=text: tmp.write_text(text, encoding="utf-8"))])
         print(f"shipped {name}: seed {seed}, test MAE {m['mae_deg']:.2f} deg")

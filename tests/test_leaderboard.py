@@ -1,11 +1,14 @@
 """The leaderboard from the shipped agents: md, csv and html with rows for ppo, dqn, bdq, reference and the paper,
 the qualitative measures; the measures themselves on signals with known answers."""
 import csv
+import json
 
 import numpy as np
 import pytest
+import torch
 
 from shoulder_bench.cli import main
+from shoulder_bench.eval import leaderboard
 from shoulder_bench.eval.measures import early_late_share, sawtooth_rate
 
 
@@ -23,6 +26,59 @@ def test_leaderboard_from_pretrained_agents(tmp_path, capsys):
     assert 0 < float(learned["ppo abduction_4m"]["early_share_mean"]) < 1
     html = (tmp_path / "leaderboard.html").read_text()
     assert "<table>" in html and "data:image/png;base64," in html and "synthetic" in html and "<li>" in html
+
+
+def _still_run(root, seed, **config):
+    """A finished run folder of a policy that never moves, with config.json as `shoulder-bench train` writes it."""
+    from shoulder_bench.train.policy import save_policy
+
+    class Still(torch.nn.Module):
+        def forward(self, obs: torch.Tensor) -> torch.Tensor:
+            return torch.zeros(obs.shape[0], obs.shape[1] - 4)
+
+    run = root / "abduction_ssp" / "ppo" / str(seed)
+    run.mkdir(parents=True)
+    cfg = {"task": "abduction_ssp", "algo": "ppo", "seed": seed, "frames": 1000, "muscle_model": "fem",
+           "config": {"lr": 1e-3}} | config
+    (run / "config.json").write_text(json.dumps(cfg))
+    (run / "metrics.json").write_text(json.dumps({"mae_deg": 1.0, "wall_s": 2.0 + seed}))
+    save_policy(Still(), run / "policy.pt", {"task": "abduction_ssp", "algo": "ppo", "seed": seed,
+                                            "muscle_model": cfg["muscle_model"]})
+
+
+def test_runs_of_different_muscle_models_are_separate_rows(tmp_path, monkeypatch, capsys):
+    few = leaderboard.trajectories_for
+    monkeypatch.setattr(leaderboard, "trajectories_for", lambda spec: few(spec)[:2])  # tiny inputs
+    runs, out = tmp_path / "runs", tmp_path / "board"
+    _still_run(runs, 0)
+    _still_run(runs, 1)  # the same setting, another seed: averaged with seed 0
+    _still_run(runs, 2, muscle_model="hill")  # differs only in the muscle model: a row of its own
+    assert main(["leaderboard", "--runs", str(runs), "--out", str(out)]) == 0
+    rows = [r for r in csv.DictReader((out / "leaderboard.csv").open()) if r["source"].startswith("runs:")]
+    assert [(r["muscle_model"], r["seeds"], r["options"], r["model_version"]) for r in rows] == [
+        ("fem", "2", "{}", "1"), ("hill", "1", "{}", "1")]
+    assert float(rows[0]["wall_s_mean"]) == pytest.approx(2.5) and float(rows[1]["wall_s_mean"]) == 4.0
+    md = (out / "leaderboard.md").read_text()
+    assert "| muscle model | options | model version |" in md and "variant" not in md
+    assert "| abduction_ssp | ppo | hill | default | 1 | runs: " in md
+
+
+def test_a_row_is_everything_but_the_seed():
+    base = {"task": "abduction_4m", "algo": "ppo", "seed": 0, "frames": 1000, "muscle_model": "fem",
+            "config": {"lr": 1e-3, "seed": 0}}
+    old = leaderboard.setting_of(base)  # from before options and model versions were recorded
+    assert old["options"] == {} and old["model_version"] == "1" and "seed" not in old
+    assert leaderboard.setting_of(base | {"seed": 5, "config": {"lr": 1e-3, "seed": 5}}) == old
+    assert leaderboard.setting_of(base | {"options": {}, "model_version": "1"}) == old
+    for change in ({"frames": 2000}, {"config": {"lr": 3e-4}}, {"options": {"alpha": 0.2}}, {"model_version": "2"}):
+        assert leaderboard.setting_of(base | change) != old, change
+    settings = [old, leaderboard.setting_of(base | {"frames": 2000}), leaderboard.setting_of(base | {"config": {}}),
+                leaderboard.setting_of(base | {"options": {"alpha": 0.2}})]
+    variants = leaderboard._variants(settings)
+    assert variants[0].startswith("1,000 frames · config ") and variants[1].startswith("2,000 frames · config ")
+    assert variants[2].startswith("1,000 frames · config ") and variants[2] != variants[0]
+    assert variants[3] == ""  # other options: its own columns tell it apart
+    assert leaderboard.options_text({"init": "zero", "alpha": 0.2}) == "alpha=0.2, init=zero"
 
 
 def test_leaderboard_without_runs_in_the_folder(tmp_path):

@@ -1,5 +1,6 @@
 """Paper-style figures: trajectory with activations, error box plots, activation patterns, as PNG and SVG."""
 import pytest
+from PIL import Image
 
 from shoulder_bench.cli import main
 
@@ -14,9 +15,12 @@ def test_trajectory_errors_and_activation_figures(tmp_path, capsys):
                  "--index", "3", "--out", str(traj)]) == 0
     assert main(["plot", "errors", "--policy", "pretrained:ppo_ssp", "--policy", "reference", "--out",
                  str(errors)]) == 0
-    assert main(["plot", "activations", "--policy", "pretrained:ppo_4m", "--out", str(acts)]) == 0
+    assert main(["plot", "activations", "--policy", "pretrained:ppo_4m", "--policy", "pretrained:bdq_4m",
+                 "--out", str(acts)]) == 0
     assert all(_written(p) for p in (traj, errors, acts))
     assert str(traj.with_suffix(".svg")) in capsys.readouterr().out
+    with Image.open(acts) as img:  # one row of (activation, share) panels per policy: 11 x 4 in each at 120 dpi
+        assert img.size == (11 * 120, 2 * 4 * 120)
 
 
 def test_bad_figure_requests_name_the_problem(tmp_path, capsys):
