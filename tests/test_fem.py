@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from shoulder_bench import anatomy
+from shoulder_bench.fem.build import grid_dict, input_hash
 from shoulder_bench.fem.material import (
     Background,
     Blemker,
@@ -17,7 +18,7 @@ from shoulder_bench.fem.material import (
     fibre_energy,
     nominal_fibre_stress,
 )
-from shoulder_bench.fem.shells import build_shell, force_check, grid_triangles, mesh_sha256
+from shoulder_bench.fem.shells import build_shell, force_check, grid_triangles, load_shell, mesh_sha256
 from shoulder_bench.fem.solver import MuscleProblem, SolverSettings
 
 MUSCLES_DIR = Path(__file__).resolve().parents[1] / "models" / "muscles"
@@ -98,6 +99,38 @@ def test_shell_reproduces_f0_and_is_deterministic(muscle):
     np.testing.assert_allclose(np.linalg.norm(shell["fibres"], axis=1), 1.0)
 
 
+@pytest.mark.parametrize("key", ["nodes", "thickness", "fibres", "theta_ref_deg"])
+def test_mesh_hash_ignores_last_bits_and_catches_a_real_change(key):
+    """Hashes are taken after rounding (shoulder_bench.fem.HASH_QUANTUM): another CPU's last-bit differences
+    (~1e-15 relative) give the same hash, a change of 1e-6 relative a different one."""
+    shell = build_shell("ssp", "coarse")
+    digest, table_key = mesh_sha256(shell), input_hash(shell, Material(), SolverSettings(), grid_dict())
+    for rel, same in ((1e-15, True), (-1e-15, True), (1e-6, False)):
+        perturbed = dict(shell, **{key: shell[key] * (1.0 + rel)})
+        assert (mesh_sha256(perturbed) == digest) is same, (key, rel)
+        assert (input_hash(perturbed, Material(), SolverSettings(), grid_dict()) == table_key) is same, (key, rel)
+
+
+def test_input_hash_rounds_the_settings():
+    shell = build_shell("ssp", "coarse")
+    key = input_hash(shell, Material(), SolverSettings(), grid_dict())
+    for rel, same in ((1e-15, True), (1e-6, False)):
+        e = Background().youngs_modulus * (1.0 + rel)
+        material = Material(background=Background(youngs_modulus=e))
+        assert (input_hash(shell, material, SolverSettings(), grid_dict()) == key) is same
+        settings = SolverSettings(tol=SolverSettings().tol * (1.0 + rel))
+        assert (input_hash(shell, Material(), settings, grid_dict()) == key) is same
+
+
+@pytest.mark.parametrize("muscle", anatomy.MUSCLES)
+def test_shipped_tables_and_shells_are_up_to_date(muscle):
+    """`fem build` reuses the shipped tables: their input hash is the one the current inputs give on this CPU."""
+    shell = build_shell(muscle, "full")
+    meta = json.loads(str(_shipped(muscle)["meta"]))
+    assert meta["input_hash"] == input_hash(shell, Material(), SolverSettings(), grid_dict())
+    assert mesh_sha256(load_shell(MUSCLES_DIR / f"{muscle}_shell.npz")) == mesh_sha256(shell) == meta["mesh_sha256"]
+
+
 def test_torque_is_minus_the_energy_derivative():
     """Virtual work: the insertion torque equals -dE*/dtheta of the solved sheet (checks the reduction's sign)."""
     shell = build_shell("ssp", "coarse")
@@ -161,7 +194,8 @@ def test_coarse_rebuild_reproduces_the_shipped_table(tmp_path):
 
     shipped = _shipped("ssp")
     coarse = solve_table(build_shell("ssp", "coarse"), Material(), SolverSettings())
-    assert np.array_equal(shipped["angle_deg"], GRID_DEG) and np.array_equal(shipped["activation"], ACTIVATIONS)
+    np.testing.assert_allclose(shipped["angle_deg"], GRID_DEG, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(shipped["activation"], ACTIVATIONS, rtol=0, atol=1e-12)
     scale = np.abs(shipped["torque_Nm"]).max()
     assert np.max(np.abs(coarse["torque_Nm"] - shipped["torque_Nm"])) <= COARSE_TOL * scale
 
@@ -176,3 +210,138 @@ def test_mesh_refinement_converges():
     d1, d2 = abs(t[1] - t[0]), abs(t[2] - t[1])
     assert d2 < d1 / 4.0
     assert d2 < 0.03 * abs(t[2])
+
+
+# --- fem build / verify: inputs and outputs checked before any work, atomic writes, the MuJoCo-vs-FEM check ---
+
+
+def _cli(capsys, *argv):
+    from shoulder_bench.cli import main
+
+    rc = main(["fem", *argv])
+    return rc, capsys.readouterr()
+
+
+@pytest.fixture
+def no_work(monkeypatch):
+    """Any of these means the command started working before it checked its arguments."""
+    def started(*a, **k):
+        raise AssertionError("work started before the arguments were checked")
+    monkeypatch.setattr("shoulder_bench.model.moment_arms", started)
+    monkeypatch.setattr("shoulder_bench.fem.verify.held_out", started)
+
+
+def _copy_shipped(folder: Path, kinds=("fem", "shell")) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    for m in anatomy.MUSCLES:
+        for kind in kinds:
+            (folder / f"{m}_{kind}.npz").write_bytes((MUSCLES_DIR / f"{m}_{kind}.npz").read_bytes())
+
+
+@pytest.mark.parametrize("cmd", ["build", "verify"])
+def test_out_naming_a_file_is_a_clear_error_before_any_work(cmd, tmp_path, capsys, no_work):
+    f = tmp_path / "taken.npz"
+    f.write_bytes(b"keep me")
+    for out, says in ((f, f"--out {f} is an existing file, not a folder"),
+                      (f / "sub", f"--out {f / 'sub'} lies under {f}, which is a file")):
+        rc, io = _cli(capsys, cmd, "--out", str(out))
+        assert rc == 2 and f"shoulder-bench fem: error: {says}" in io.err and "Traceback" not in io.err
+    assert f.read_bytes() == b"keep me" and [p.name for p in tmp_path.iterdir()] == ["taken.npz"]
+
+
+def test_build_coarse_without_out_would_replace_the_shipped_tables(capsys, no_work):
+    rc, io = _cli(capsys, "build", "--coarse")
+    assert rc == 2 and "--coarse without --out" in io.err and "give --out DIR" in io.err
+
+
+def test_verify_names_a_missing_folder_or_a_corrupt_table(tmp_path, capsys, no_work):
+    rc, io = _cli(capsys, "verify", "--tables", str(tmp_path / "nowhere"), "--no-figure")
+    assert rc == 2 and f"--tables {tmp_path / 'nowhere'} is not a folder" in io.err
+    _copy_shipped(tmp_path, ("fem",))
+    (tmp_path / "isp_fem.npz").write_bytes(b"not a zip")
+    rc, io = _cli(capsys, "verify", "--tables", str(tmp_path), "--no-figure")
+    assert rc == 2 and "isp_fem.npz is unreadable or corrupt" in io.err and "fem build" in io.err
+
+
+def test_build_on_up_to_date_tables_writes_nothing(tmp_path, capsys):
+    _copy_shipped(tmp_path)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    rc, io = _cli(capsys, "build", "--out", str(tmp_path))
+    assert rc == 0 and io.out.count("up to date, nothing to do") == len(anatomy.MUSCLES), io.out
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
+def test_failed_build_leaves_nothing_half_written(tmp_path, monkeypatch):
+    from shoulder_bench.fem import build as fem_build
+
+    def fails(*a, **k):
+        raise RuntimeError("solver died")
+    monkeypatch.setattr(fem_build, "solve_table", fails)
+    with pytest.raises(RuntimeError, match="solver died"):
+        fem_build.build(("ssp",), out=tmp_path / "new", quiet=True)
+    assert not (tmp_path / "new").exists() or list((tmp_path / "new").iterdir()) == []
+
+
+def test_applied_torque_check_reports_each_muscle_on_the_shipped_tables():
+    """Through MuJoCo: the applied torque is the table's force x moment arm, so the check's error is the mismatch
+    `fem build` records; reported per muscle in N m and % of its peak (pass or fail is the model's business)."""
+    from shoulder_bench.fem.verify import applied_torques, applied_vs_fem, load_tables
+
+    tables = load_tables()
+    applied = applied_torques()
+    checks = applied_vs_fem(tables, applied)
+    assert [c[0].split(":")[0] for c in checks] == list(anatomy.MUSCLES)
+    for (_, ok, detail), m in zip(checks, anatomy.MUSCLES):
+        t = tables[m]
+        np.testing.assert_allclose(applied[m], t["force_N"] * t["moment_arm_m"][:, None], rtol=0, atol=1e-4)
+        worst = np.abs(applied[m] - t["torque_Nm"]).max()
+        assert worst == pytest.approx(t["meta"]["max_torque_mismatch_Nm"], abs=1e-4)
+        peak = np.abs(t["torque_Nm"]).max()
+        assert f"{worst:.3f} N m = {100 * worst / peak:.2f} % of its peak {peak:.2f} N m" in detail
+        assert ok == (worst <= 0.01 * peak)
+
+
+@pytest.mark.parametrize("share,passes", [(0.0, True), (0.008, True), (0.012, False), (0.25, False)])
+def test_applied_torque_check_fails_beyond_one_percent_of_the_peak(tmp_path, share, passes):
+    """Synthetic tables whose FEM torque is exactly what MuJoCo applies (force x moment arm), then one pose of dmi
+    moved by `share` of its peak: within 1 % the check passes, beyond it fails and names the pose."""
+    from shoulder_bench.fem.verify import applied_torques, applied_vs_fem, load_tables
+
+    _copy_shipped(tmp_path, ("fem",))
+    for m in anatomy.MUSCLES:
+        with np.load(tmp_path / f"{m}_fem.npz") as z:
+            data = dict(z)
+        data["torque_Nm"] = data["force_N"] * data["moment_arm_m"][:, None]
+        if m == "dmi":
+            data["torque_Nm"][8, 2] += share * np.abs(data["torque_Nm"]).max()  # 30 deg, a = 0.25
+        np.savez(tmp_path / f"{m}_fem.npz", **data)
+    tables = load_tables(tmp_path)
+    checks = dict((c[0].split(":")[0], c) for c in applied_vs_fem(tables, applied_torques(tmp_path)))
+    assert [m for m, c in checks.items() if not c[1]] == ([] if passes else ["dmi"])
+    if share:
+        assert f"{100 * share:.2f} % of its peak" in checks["dmi"][2] and "at 30 deg, a = 0.25" in checks["dmi"][2]
+
+
+def test_verify_report_lists_every_failure_and_sets_the_exit_status(capsys):
+    from shoulder_bench.fem.verify import report
+
+    assert report([("a", [("one", True, "1")]), ("b", [("two", True, "2")])]) == 0
+    assert "[pass] one: 1" in capsys.readouterr().out
+    assert report([("a", [("one", True, "1")]), ("b", [("two", False, "2"), ("three", False, "3")])]) == 1
+    out = capsys.readouterr().out
+    assert "[FAIL] two: 2" in out and "2 of 3 checks FAILED" in out and out.rstrip().endswith("[FAIL] three")
+
+
+def test_verify_writes_its_figure_into_out(tmp_path, monkeypatch, capsys):
+    """The figure goes to --out (default: the working directory), never into the package."""
+    from shoulder_bench.fem import verify as fem_verify
+
+    monkeypatch.setattr(fem_verify, "held_out", lambda tables: [("held-out (skipped here)", True, "")])
+    monkeypatch.chdir(tmp_path)
+    rc, io = _cli(capsys, "verify")
+    assert rc in (0, 1) and (tmp_path / "muscle_torques.png").stat().st_size > 10_000
+    assert f"figure: {tmp_path / 'muscle_torques.png'}" in io.out
+    rc, io = _cli(capsys, "verify", "--out", "figs")
+    assert (tmp_path / "figs" / "muscle_torques.png").exists() and sorted(p.name for p in tmp_path.iterdir()) == [
+        "figs", "muscle_torques.png"]
+    assert ("[FAIL]" in io.out) == (rc == 1)

@@ -6,7 +6,13 @@ apply along the MJCF tendon so that its torque equals the FEM torque at grid poi
 (K, J, 3), the resultant the muscle exerts on the humerus, and newton_iterations (K, J).
 
 Caching: a table whose meta.input_hash equals the hash of (shell mesh, material, solver settings, grid, code version)
-is not re-solved; only its moment arms and force_N are refreshed from the current MJCF.
+is not re-solved; only its moment arms and force_N are refreshed from the current MJCF (and when those are unchanged
+too, nothing is written). The hash is taken after
+rounding (mesh arrays to 1e-10 of their unit, scalars to 9 significant digits: shoulder_bench.fem), so it is the same
+on every CPU.
+
+Every file is written atomically (temporary file, then os.replace): a build that fails leaves the files it had not
+finished as they were.
 """
 from __future__ import annotations
 
@@ -19,10 +25,11 @@ import numpy as np
 from tqdm import tqdm
 
 from shoulder_bench import anatomy
-from shoulder_bench.fem import CODE_VERSION
+from shoulder_bench.fem import CODE_VERSION, output_folder, rounded
 from shoulder_bench.fem.material import Material
 from shoulder_bench.fem.shells import GRID_DEG, build_shell, load_shell, mesh_sha256, save_shell, shell_path
 from shoulder_bench.fem.solver import MuscleProblem, SolverSettings
+from shoulder_bench.muscle import replacing
 
 ACTIVATIONS = np.array([0.0, 0.1, 0.25, 0.5, 0.75, 1.0])
 SMALL_MOMENT_ARM = 0.003  # m; below this |r|, force = torque / r is ill-conditioned: interpolated instead
@@ -30,8 +37,10 @@ NOISE_FORCE_N = 1.0  # |negative tendon force| up to this is solver noise on a s
 
 
 def input_hash(shell: dict, material: Material, settings: SolverSettings, grid: dict) -> str:
-    blob = json.dumps({"mesh": mesh_sha256(shell), "material": material.as_dict(), "solver": settings.as_dict(),
-                       "grid": grid, "code_version": CODE_VERSION}, sort_keys=True)
+    """SHA-256 of (mesh hash, material, solver settings, grid, CODE_VERSION), floats rounded to 9 significant digits."""
+    blob = json.dumps(rounded({"mesh": mesh_sha256(shell), "material": material.as_dict(),
+                               "solver": settings.as_dict(), "grid": grid, "code_version": CODE_VERSION}),
+                      sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()
 
 
@@ -53,15 +62,11 @@ def _cached(path: Path, digest: str) -> dict | None:
         return None
 
 
-def shell_for(muscle: str, coarse: bool, out: Path | None) -> dict:
-    """The full-resolution shell is stored in models/muscles (written if missing or stale); coarse is in memory."""
-    if coarse:
-        return build_shell(muscle, "coarse")
-    shell = build_shell(muscle, "full")
-    path = shell_path(muscle, out)
+def store_shell(shell: dict, folder: Path) -> None:
+    """Store the (full-resolution) shell beside its table: written if missing or stale."""
+    path = shell_path(str(shell["muscle"]), folder)
     if not path.exists() or mesh_sha256(load_shell(path)) != mesh_sha256(shell):
         save_shell(shell, path)
-    return shell
 
 
 def solve_table(shell: dict, material: Material, settings: SolverSettings, progress: tqdm | None = None) -> dict:
@@ -103,31 +108,39 @@ def write_table(path: Path, muscle: str, fem: dict, meta: dict, moment_arm: np.n
               "insertion_force_N": fem["insertion_force_N"], "newton_iterations": fem["newton_iterations"],
               "stalled_solves": fem["stalled_solves"],
               "meta": np.array(json.dumps(meta, sort_keys=True))}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp.npz")
-    np.savez(tmp, **arrays)
-    tmp.replace(path)
+    with replacing(path) as tmp:
+        np.savez(tmp, **arrays)
     return meta
 
 
 def build(muscles=anatomy.MUSCLES, coarse: bool = False, out: Path | None = None, material: Material | None = None,
           settings: SolverSettings | None = None, quiet: bool = False) -> dict[str, dict]:
-    """Build (or reuse) the FEM table of each muscle. Returns {muscle: meta}."""
-    material = material or Material()
-    settings = settings or SolverSettings()
+    """Build (or reuse) the FEM table of each muscle into `out` (default models/muscles). Returns {muscle: meta
+    plus `cached` (inputs unchanged, not re-solved) and `written` (its table file was written)}.
+
+    The output folder is checked before any work (ValueError when it is a file or not writable, or when coarse
+    tables would replace the shipped full ones)."""
     from shoulder_bench.model import MODELS_DIR, moment_arms
 
-    folder = Path(out) if out is not None else MODELS_DIR / "muscles"
+    if coarse and out is None:
+        raise ValueError(f"--coarse without --out would replace the full tables in {MODELS_DIR / 'muscles'} with "
+                         "coarse ones; give --out DIR for the coarse tables")
+    folder = output_folder(out if out is not None else MODELS_DIR / "muscles", "--out")
+    material = material or Material()
+    settings = settings or SolverSettings()
     arms = moment_arms(GRID_DEG)
     grid = grid_dict()
     result = {}
     for m in muscles:
-        shell = shell_for(m, coarse, out)
+        shell = build_shell(m, "coarse" if coarse else "full")
         digest = input_hash(shell, material, settings, grid)
         path = folder / f"{m}_fem.npz"
         fem = _cached(path, digest)
         t0 = time.perf_counter()
         cached = fem is not None
+        if cached and np.allclose(fem["moment_arm_m"], arms[m], rtol=0.0, atol=1e-12):  # up to date: write nothing
+            result[m] = dict(json.loads(str(fem["meta"])), cached=True, written=False)
+            continue
         if fem is None:
             with tqdm(total=len(GRID_DEG) * len(ACTIVATIONS), desc=f"fem {m}", disable=quiet, leave=True) as bar:
                 fem = solve_table(shell, material, settings, bar)
@@ -139,5 +152,7 @@ def build(muscles=anatomy.MUSCLES, coarse: bool = False, out: Path | None = None
                 f"({settings.stall_factor * settings.tol} F0 for {int(fem['stalled_solves'])} stalled solves)",
                 "code_version": CODE_VERSION, "input_hash": digest, "resolution": [int(r) for r in shell["resolution"]],
                 "theta_ref_deg": float(shell["theta_ref_deg"]), "build_seconds": round(seconds, 2)}
-        result[m] = dict(write_table(path, m, fem, meta, arms[m]), cached=cached)
+        result[m] = dict(write_table(path, m, fem, meta, arms[m]), cached=cached, written=True)
+        if not coarse:
+            store_shell(shell, folder)
     return result

@@ -26,7 +26,8 @@ def _build(args) -> int:
         if meta["force_interpolated_deg"]:
             note = (f"  force interpolated near zero moment arm at {meta['force_interpolated_deg']} deg "
                     f"(MuJoCo torque off the FEM by <= {meta['max_torque_mismatch_Nm']:.2f} N m there)")
-        how = "unchanged inputs, reused" if meta["cached"] else "solved"
+        how = ("solved" if not meta["cached"] else "inputs unchanged, moment arms refreshed" if meta["written"]
+               else "up to date, nothing to do")
         print(f"{m}: {meta['resolution']} mesh, {how} ({meta['build_seconds']:.1f} s to solve){note}")
     print(f"total {time.perf_counter() - t0:.1f} s")
     return 0
@@ -35,7 +36,7 @@ def _build(args) -> int:
 def _verify(args) -> int:
     from shoulder_bench.fem.verify import verify
 
-    return verify(folder=args.tables, figure=not args.no_figure)
+    return verify(folder=args.tables, out=args.out, figure=not args.no_figure)
 
 
 def _convergence(args) -> int:
@@ -50,11 +51,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="fem_command", required=True)
     b = sub.add_parser("build", help="solve the muscle sheets over the grid and write models/muscles/<m>_fem.npz")
     b.add_argument("--muscle", type=_muscle, help=f"one of {', '.join(anatomy.MUSCLES)} (default: all)")
-    b.add_argument("--coarse", action="store_true", help="coarse meshes (CI); same grid")
-    b.add_argument("--out", type=Path, default=None, help="output folder (default: models/muscles)")
+    b.add_argument("--coarse", action="store_true", help="coarse meshes (CI); same grid; needs --out")
+    b.add_argument("--out", type=Path, default=None, help="output folder, created if missing (default: models/muscles)")
     b.set_defaults(func=_build)
-    v = sub.add_parser("verify", help="re-solve held-out points, check literature bands, draw the figure")
+    v = sub.add_parser("verify", help="re-solve held-out points, compare MuJoCo's torque with the FEM's, check "
+                       "literature bands, draw the figure; exit status 1 when any check fails")
     v.add_argument("--tables", type=Path, default=None, help="folder of the tables (default: models/muscles)")
+    v.add_argument("--out", type=Path, default=None,
+                   help="folder for the figure muscle_torques.png (default: the current directory)")
     v.add_argument("--no-figure", action="store_true")
     v.set_defaults(func=_verify)
     c = sub.add_parser("convergence", help="mesh-refinement study of the torque at a few points (slow)")

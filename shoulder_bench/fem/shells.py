@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from shoulder_bench import anatomy
+from shoulder_bench.fem import quantised
 from shoulder_bench.fem.material import Blemker
 
 R_HEAD = anatomy.HUMERAL_HEAD_RADIUS
@@ -156,11 +157,11 @@ def build_shell(muscle: str, resolution: str | tuple[int, int] = "full") -> dict
 
 
 def mesh_sha256(shell: dict) -> str:
+    """SHA-256 of the mesh after rounding its floats to HASH_QUANTUM (shoulder_bench.fem): the same on every CPU."""
     h = hashlib.sha256()
     for key in ("nodes", "triangles", "fibres", "thickness", "origin_nodes", "insertion_nodes", "theta_ref_deg"):
-        a = np.ascontiguousarray(shell[key])
-        h.update(key.encode())
-        h.update(str(a.dtype).encode() + str(a.shape).encode())
+        a = quantised(shell[key])
+        h.update(key.encode() + str(a.shape).encode())
         h.update(a.tobytes())
     return h.hexdigest()
 
@@ -172,11 +173,10 @@ def shell_path(muscle: str, folder: Path | None = None) -> Path:
 
 
 def save_shell(shell: dict, path: Path) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp.npz")
-    np.savez(tmp, **shell)
-    tmp.replace(path)
+    from shoulder_bench.muscle import replacing
+
+    with replacing(path) as tmp:
+        np.savez(tmp, **shell)
 
 
 def load_shell(path: Path) -> dict:
