@@ -12,6 +12,7 @@ its scapular via point are placed by hand (MoBL thorax points need a frame chain
 """
 from __future__ import annotations
 
+MODEL_VERSION = "1"  # recorded in every run and policy; bump when the model's dynamics change
 MUSCLES = ("ssp", "isp", "dmi", "ld")
 MUSCLE_NAMES = {"ssp": "supraspinatus", "isp": "infraspinatus", "dmi": "deltoid, middle part", "ld": "latissimus dorsi"}
 

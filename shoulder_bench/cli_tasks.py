@@ -34,6 +34,10 @@ def _demo(args) -> int:
     from shoulder_bench.render import render_video
 
     check_task(args.task, "ppo")  # before any work: the demo trains PPO
+    if args.frames <= 0 or not args.seconds > 0:
+        raise ValueError(f"--frames ({args.frames}) and --seconds ({args.seconds:g}) must be positive")
+    if args.out.exists() and not args.out.is_dir():
+        raise ValueError(f"--out {args.out} is a file; give a folder for the demo's outputs")
     t0 = time.perf_counter()
     run_dir = args.out / args.task / "ppo" / str(args.seed)
     print(f"[1/4] training PPO on {args.task} for {args.frames:,} frames -> {run_dir}")

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -11,16 +12,22 @@ import torch
 
 PAPER_PPO4_MAE = 5.15  # deg: "the paper's accuracy" for frames-to-accuracy (PPO-4, their model)
 ALGOS = ("ppo", "dqn", "bdq")
+DEFAULT_FRAMES = {"ppo": 1_600_000, "dqn": 200_000, "bdq": 500_000}
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("train", help="train an agent; writes runs/<task>/<algo>/<seed>/")
     p.add_argument("--task", required=True)
     p.add_argument("--algo", required=True, choices=ALGOS)
-    p.add_argument("--frames", type=int, default=None, help="frame budget (a frame = one 0.1 s step of one copy)")
+    defaults = ", ".join(f"{a} {n:,}" for a, n in DEFAULT_FRAMES.items())
+    p.add_argument("--frames", type=int, default=None,
+                   help=f"frame budget (a frame = one 0.1 s step of one copy), rounded up to whole iterations; "
+                        f"default: {defaults}")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--out", type=Path, default=None)
-    p.add_argument("--resume", action="store_true", help="continue the run in --out from its last checkpoint")
+    p.add_argument("--out", type=Path, default=None, help="run folder (default: runs/<task>/<algo>/<seed>)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the run in --out from its last checkpoint (same task, algo, seed, muscle model "
+                        "and config; only --frames may grow)")
     p.add_argument("--config", type=Path, default=None, help="JSON file overriding the algorithm's config fields")
     p.add_argument("--muscle-model", default=None, help="fem or hill (default: the package default)")
     p.add_argument("--eval-every", type=int, default=100_000, help="frames between test-set evaluations")
@@ -44,33 +51,6 @@ def algo_module(algo: str):
     return dqn, dqn.DQNConfig
 
 
-def load_config(cls, path: Path | None, **defaults):
-    cfg = cls(**defaults)
-    if path is None:
-        return cfg
-    try:
-        overrides = json.loads(Path(path).read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ValueError(f"config file {path}: {exc}") from exc
-    names = {f.name for f in dataclasses.fields(cls)}
-    unknown = sorted(set(overrides) - names)
-    if unknown:
-        raise ValueError(f"config file {path}: unknown field(s) {unknown}; valid: {sorted(names)}")
-    return dataclasses.replace(cfg, **overrides)
-
-
-def _dqn_config(task: str, path: Path | None):
-    from shoulder_bench.train.dqn import DQNConfig, config_for
-
-    base = config_for(task)
-    if path is None:
-        return base
-    over = load_config(DQNConfig, path)  # validates the field names
-    changed = {f.name: getattr(over, f.name) for f in dataclasses.fields(DQNConfig)
-               if getattr(over, f.name) != getattr(DQNConfig(), f.name)}
-    return dataclasses.replace(base, **changed)
-
-
 def check_task(task: str, algo: str) -> None:
     from shoulder_bench.tasks import TASKS, _check
 
@@ -82,18 +62,63 @@ def check_task(task: str, algo: str) -> None:
         raise ValueError(f"--algo {algo} needs {want}; {task} is not. Valid: {', '.join(valid)}")
 
 
-DEFAULT_FRAMES = {"ppo": 1_600_000, "dqn": 200_000, "bdq": 500_000}
+def _count(name: str, value, low: int = 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+    return int(value)
 
 
-def finished_metrics(out: Path, task: str, algo: str, frames: int) -> dict | None:
-    """metrics.json of a finished run of `algo` on `task` in `out` with at least `frames`, else None."""
+def plan(task: str, algo: str, frames: int | None = None, seed: int = 0, overrides: dict | None = None,
+         muscle_model: str | None = None, source: str = "config"):
+    """Check everything that defines a run, before any work: (algorithm module, its config, the run's config.json).
+
+    The budget is rounded up to whole iterations (PPO: num_envs x steps_per_env frames; DQN/BDQ: num_envs)."""
+    from shoulder_bench.anatomy import MODEL_VERSION
+    from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
+    from shoulder_bench.muscle import MUSCLE_MODELS
+    from shoulder_bench.train.config import build
+
+    if algo not in ALGOS:
+        raise ValueError(f"unknown algorithm {algo!r}; choose from {', '.join(ALGOS)}")
+    check_task(task, algo)
+    asked = _count("--frames", DEFAULT_FRAMES[algo] if frames is None else frames)
+    seed = _count("--seed", seed, low=0)
+    muscle_model = muscle_model or DEFAULT_MUSCLE_MODEL
+    if muscle_model not in MUSCLE_MODELS:
+        raise ValueError(f"unknown muscle model {muscle_model!r}; choose one of {', '.join(MUSCLE_MODELS)}")
+    module, cls = algo_module(algo)
+    overrides = dict(overrides or {})
+    if algo == "ppo":
+        cfg = build(cls, module.LIMITS, overrides=overrides, source=source)
+    else:
+        for key in ("seed", "frames"):
+            if key in overrides:
+                raise ValueError(f"{source}: set {key} with --{key}, not in the config")
+        cfg = build(cls, module.LIMITS, base=module.config_for(task), overrides=overrides, source=source)
+    per = module.frames_per_iteration(cfg)
+    budget = -(-asked // per) * per
+    if algo != "ppo":
+        cfg = dataclasses.replace(cfg, seed=seed, frames=budget)
+    config = {"task": task, "algo": algo, "seed": seed, "frames": budget, "frames_asked": asked,
+              "frames_per_iteration": per, "muscle_model": muscle_model, "options": {},
+              "model_version": MODEL_VERSION, "config": dataclasses.asdict(cfg)}
+    return module, cfg, config
+
+
+def finished_metrics(out: Path, config: dict) -> dict | None:
+    """metrics.json of the finished run in `out` if it is the run `config` defines, with at least its frames."""
+    from shoulder_bench.train.run import check_same_run, identity_of
+
     try:
-        metrics = json.loads((out / "metrics.json").read_text())
-        config = json.loads((out / "config.json").read_text())
+        metrics = json.loads((Path(out) / "metrics.json").read_text())
+        recorded = json.loads((Path(out) / "config.json").read_text())
     except (OSError, json.JSONDecodeError):
         return None
-    same = (config.get("task"), config.get("algo")) == (task, algo)
-    return metrics if same and metrics.get("frames", 0) >= frames and (out / "policy.pt").exists() else None
+    if not (Path(out) / "policy.pt").exists() or metrics.get("frames", 0) < config["frames"]:
+        return None
+    if identity_of(recorded) != identity_of(config):
+        check_same_run(recorded, config, Path(out))  # names the field
+    return metrics
 
 
 def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: Path | None = None,
@@ -102,57 +127,78 @@ def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: P
     """Train, evaluate on the fixed test set, write the run folder; returns metrics.json's content."""
     import shoulder_bench
     from shoulder_bench.eval.evaluate import evaluate
-    from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
+    from shoulder_bench.train.config import read_overrides
     from shoulder_bench.train.policy import save_policy
     from shoulder_bench.train.run import Run
     from shoulder_bench.trajectory import load_test_set
 
-    check_task(task, algo)
-    module, cls = algo_module(algo)
-    cfg = load_config(cls, config) if algo == "ppo" else _dqn_config(task, config)
-    frames = frames or DEFAULT_FRAMES[algo]
-    muscle_model = muscle_model or DEFAULT_MUSCLE_MODEL
+    _, cls = algo_module(algo) if algo in ALGOS else (None, None)
+    overrides = read_overrides(config, cls) if cls is not None else {}
+    module, cfg, run_config = plan(task, algo, frames, seed, overrides, muscle_model,
+                                   source=f"config file {config}" if config else "config")
+    eval_every = _count("--eval-every", eval_every)
+    seed, frames, muscle_model = run_config["seed"], run_config["frames"], run_config["muscle_model"]
+    if frames != run_config["frames_asked"]:
+        print(f"budget: {run_config['frames_asked']:,} frames rounded up to {frames:,} "
+              f"({frames // run_config['frames_per_iteration']} iterations of {run_config['frames_per_iteration']:,})")
     out = Path(out or Path("runs") / task / algo / str(seed))
-    done = finished_metrics(out, task, algo, frames) if resume else None
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} is a file; give a folder for the run")
+    done = finished_metrics(out, run_config) if resume else None
     if done is not None:  # nothing to do; opening the run again would start a new TensorBoard file
         return done
-    run = Run(out, {"task": task, "algo": algo, "seed": seed, "frames": frames, "muscle_model": muscle_model,
-                    "config": dataclasses.asdict(cfg)}, resume)
     # the simulator's rollout threads own the cores while stepping; torch's small matrices gain nothing from more
     # threads and OpenMP threads spinning against them cost 10x (measured: 34 s -> 3 s per PPO iteration)
     torch.set_num_threads(1)
     torch.manual_seed(seed)
     np.random.seed(seed)
-    venv = shoulder_bench.make_vec(task, cfg.num_envs, seed=seed * 100_000, muscle_model=muscle_model)
-    test = load_test_set()
+    with Run(out, run_config, resume) as run:
+        venv = shoulder_bench.make_vec(task, cfg.num_envs, seed=seed * 100_000, muscle_model=muscle_model)
+        run.env = venv
+        if run.checkpoint is not None and "env" in run.checkpoint["state"]:
+            venv.load_state_dict(run.checkpoint["state"]["env"])
+        elif run.checkpoint is not None:
+            print(f"warning: {run.dir / 'checkpoint.pt'} predates exact resume (no env state): the episodes restart")
+        test = load_test_set()
 
-    def on_eval(policy) -> None:
-        m = evaluate(policy, task, test, muscle_model=muscle_model)
-        run.writer.add_scalar("test/mae_deg", m["mae_deg"], run.frames)
-        run.writer.add_scalar("test/rmse_deg", m["rmse_deg"], run.frames)
-        run.writer.add_scalar("test/crashes", m["crashes"], run.frames)
-        if run.paper_frames is None and m["mae_deg"] <= PAPER_PPO4_MAE:
-            run.paper_frames = run.frames
-            run.writer.add_scalar("test/wall_s_to_paper_accuracy", run.elapsed(), run.frames)
+        def on_eval(policy) -> None:
+            m = evaluate(policy, task, test, muscle_model=muscle_model)
+            run.writer.add_scalar("test/mae_deg", m["mae_deg"], run.frames)
+            run.writer.add_scalar("test/rmse_deg", m["rmse_deg"], run.frames)
+            run.writer.add_scalar("test/crashes", m["crashes"], run.frames)
+            if run.paper_frames is None and m["mae_deg"] <= PAPER_PPO4_MAE:
+                run.paper_frames = run.frames
+                run.writer.add_scalar("test/wall_s_to_paper_accuracy", run.elapsed(), run.frames)
 
-    def evaluate_every(now: int) -> int:
-        return (now // eval_every + 1) * eval_every
+        def evaluate_every(now: int) -> int:
+            return (now // eval_every + 1) * eval_every
 
-    run.start_progress(frames)
-    policy = module.train(run, venv, cfg, frames, evaluate_every, on_eval)
-    venv.close()
-    final = evaluate(policy, task, test, muscle_model=muscle_model)
-    metrics = {k: final[k] for k in ("mae_deg", "rmse_deg", "crashes", "n_trajectories")}
-    metrics["per_trajectory"] = final["per_trajectory"]
-    save_policy(policy, run.dir / "policy.pt", {"task": task, "algo": algo, "seed": seed, "frames": run.frames,
-                                                 "muscle_model": muscle_model,
-                                                 "test": {k: metrics[k] for k in ("mae_deg", "rmse_deg", "crashes")}})
-    return run.finish(metrics)
+        run.start_progress(frames)
+        try:
+            policy = module.train(run, venv, cfg, frames, evaluate_every, on_eval)
+        finally:
+            venv.close()
+        final = evaluate(policy, task, test, muscle_model=muscle_model)
+        metrics = {k: final[k] for k in ("mae_deg", "rmse_deg", "crashes", "n_trajectories")}
+        metrics["per_trajectory"] = final["per_trajectory"]
+        save_policy(policy, run.dir / "policy.pt",
+                    {"task": task, "algo": algo, "seed": seed, "frames": run.frames, "muscle_model": muscle_model,
+                     "options": run_config["options"], "model_version": run_config["model_version"],
+                     "test": {k: metrics[k] for k in ("mae_deg", "rmse_deg", "crashes")}})
+        return run.finish(metrics)
 
 
 def _train(args) -> int:
-    m = train(args.task, args.algo, args.frames, args.seed, args.out, args.resume, args.config, args.muscle_model,
-              args.eval_every)
+    try:
+        m = train(args.task, args.algo, args.frames, args.seed, args.out, args.resume, args.config,
+                  args.muscle_model, args.eval_every)
+    except KeyboardInterrupt:
+        out = args.out or Path("runs") / args.task / args.algo / str(args.seed)
+        kept = (Path(out) / "checkpoint.pt").exists()
+        print("\ntrain: interrupted; " + (f"continue from the last checkpoint with the same command and --resume "
+                                            f"(run folder {out})" if kept else "no checkpoint yet, nothing kept"),
+              file=sys.stderr)
+        return 130
     print(f"test set: MAE {m['mae_deg']:.2f} deg, RMSE {m['rmse_deg']:.2f} deg, crashes {m['crashes']}/"
           f"{m['n_trajectories']}; {m['frames']:,} frames in {m['wall_s']:.0f} s")
     return 0

@@ -134,6 +134,27 @@ class VecEnv(_RslVecEnv):
         return (obs, torch.as_tensor(reward, dtype=torch.float32, device=self.device),
                 torch.as_tensor(done, dtype=torch.long, device=self.device), extras)
 
+    # --- checkpoints --------------------------------------------------------------------------------------------------
+    _STATE = ("targets", "target_vel", "frames", "q", "v", "act", "_return", "_abs_err")
+
+    def state_dict(self) -> dict:
+        """Everything that decides the copies' future: physics state, activations, targets, episode progress and
+        every copy's target RNG, so a restored env continues exactly as this one would."""
+        return {"num_envs": self.num_envs, "name": self.name, "rngs": [r.bit_generator.state for r in self.rngs],
+                "episode_length_buf": self.episode_length_buf.clone(), "finished": list(self._finished),
+                **{key: getattr(self, key).copy() for key in self._STATE}}
+
+    def load_state_dict(self, state: dict) -> None:
+        if (state["name"], state["num_envs"]) != (self.name, self.num_envs):
+            raise ValueError(f"env state of {state['num_envs']} copies of {state['name']} cannot be restored into "
+                             f"{self.num_envs} copies of {self.name}")
+        for rng, saved in zip(self.rngs, state["rngs"]):
+            rng.bit_generator.state = saved
+        for key in self._STATE:
+            setattr(self, key, np.array(state[key], copy=True))
+        self.episode_length_buf = state["episode_length_buf"].clone().to(self.device)
+        self._finished = list(state["finished"])
+
     def finished_returns(self) -> list[float]:
         """Returns of the episodes that ended since the last call."""
         out, self._finished = self._finished, []

@@ -76,7 +76,7 @@ def test_corrupt_or_mismatched_checkpoint_names_the_file(tmp_path, capsys):
     other = tmp_path / "other"
     train("abduction_ssp", "ppo", frames=128, out=other, config=_config(tmp_path), eval_every=10**9)
     (other / "metrics.json").unlink()
-    with pytest.raises(ValueError, match=r"checkpoint.pt.*ppo run on abduction_ssp"):
+    with pytest.raises(ValueError, match=r"other is a run with task = 'abduction_ssp'.*'abduction_4m'"):
         train("abduction_4m", "ppo", frames=256, out=other, config=_config(tmp_path), resume=True)
     bad_policy = tmp_path / "p.pt"
     bad_policy.write_bytes(b"nope")

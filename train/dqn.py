@@ -51,6 +51,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from shoulder_bench.protocol import LEVELS  # 21 levels of change of activation per muscle
+from shoulder_bench.train.config import at_least, positive, sizes, unit_interval
 
 
 @dataclass
@@ -78,6 +79,19 @@ class DQNConfig:
     checkpoint_every: int = 50_000  # frames between on_checkpoint calls
     save_buffer: bool = True  # include the replay buffer in state_dict() (exact resume; 46 / 73 bytes per transition
     # for 1 / 4 muscles, i.e. 9 / 15 MB when full)
+
+
+LIMITS = {"frames": at_least(1), "num_envs": at_least(1), "buffer_size": at_least(1), "batch_size": at_least(1),
+          "lr": positive(), "gamma": unit_interval(open_low=True), "target_update_every": at_least(1),
+          "target_tau": unit_interval(open_low=True), "eps_start": unit_interval(), "eps_end": unit_interval(),
+          "eps_decay_frames": at_least(0), "learning_starts": at_least(0), "updates_per_step": at_least(0),
+          "hidden": sizes(), "reward_scale": positive(), "huber_delta": positive(), "max_grad_norm": positive(),
+          "seed": at_least(0), "log_every": at_least(1), "checkpoint_every": at_least(1)}
+
+
+def frames_per_iteration(cfg: DQNConfig) -> int:
+    """Frames of one vec step: `learn` runs whole vec steps, so budgets are multiples of this."""
+    return cfg.num_envs
 
 
 # settings used for the numbers in benchmarks/dqn_curve.py (the paper gives only gamma and the single-muscle network)

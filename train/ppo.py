@@ -17,6 +17,7 @@ import torch
 from rsl_rl.runners import OnPolicyRunner
 
 from shoulder_bench import protocol
+from shoulder_bench.train.config import at_least, one_of, positive, sizes, unit_interval
 from shoulder_bench.train.policy import ScaledPolicy
 
 
@@ -41,6 +42,21 @@ class PPOConfig:
     reward_scale: float = 1.0  # rewards are multiplied by this for learning (rsl-rl does not normalise values)
     error_features: bool = False  # append (target - angle) / 5 deg and (target vel - vel) / 10 deg/s to the input
     checkpoint_every: int = 10  # iterations
+
+
+LIMITS = {"num_envs": at_least(1), "steps_per_env": at_least(1), "hidden_dims": sizes(),
+          "activation": one_of("elu", "selu", "relu", "crelu", "lrelu", "tanh", "sigmoid", "softplus", "gelu",
+                               "swish", "mish", "identity"),
+          "learning_rate": positive(), "schedule": one_of("adaptive", "fixed"), "desired_kl": positive(),
+          "num_learning_epochs": at_least(1), "num_mini_batches": at_least(1), "clip_param": positive(),
+          "gamma": unit_interval(open_low=True), "lam": unit_interval(), "entropy_coef": at_least(0),
+          "value_loss_coef": at_least(0), "max_grad_norm": positive(), "init_std": positive(),
+          "reward_scale": positive(), "checkpoint_every": at_least(1)}
+
+
+def frames_per_iteration(cfg: PPOConfig) -> int:
+    """Frames one collect-and-update iteration simulates: budgets are whole iterations."""
+    return cfg.num_envs * cfg.steps_per_env
 
 
 class ErrorFeatures(torch.nn.Module):
@@ -115,8 +131,8 @@ def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval) -> to
         torch.set_rng_state(run.checkpoint["state"]["torch_rng"])
     obs = env.get_observations()
     alg.train_mode()
-    per_iteration = venv.num_envs * cfg.steps_per_env
-    iteration, next_eval = 0, evaluate_every(run.frames)
+    per_iteration = frames_per_iteration(cfg)
+    iteration, next_eval = run.frames // per_iteration, evaluate_every(run.frames)
     while run.frames < frames:
         t0 = time.perf_counter()
         with torch.inference_mode():

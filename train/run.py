@@ -1,18 +1,33 @@
 """A training run's folder: `runs/<task>/<algo>/<seed>/` with the resolved config, TensorBoard events, the latest
-checkpoint (written atomically), the exported policy and `metrics.json`. `--resume` continues from the checkpoint."""
+checkpoint (written atomically), the exported policy and `metrics.json`.
+
+A run is defined by its identity (`IDENTITY`: task, algorithm, seed, muscle model, task options, model version and
+the algorithm's resolved config), fixed when it starts; `--resume` refuses any change to it, naming the field, and
+only the frame budget may grow. One process writes a folder at a time: `Run` holds an OS file lock on `<run>/.lock`
+(released by the OS when the process ends, so a crashed run leaves no stale lock). A run that fails or is interrupted
+before its first checkpoint leaves nothing behind; after it, the checkpoint stays for `--resume`, and the TensorBoard
+events logged past the checkpoint are dropped when the run resumes.
+"""
 from __future__ import annotations
 
+import fcntl
 import json
 import os
+import shutil
+import socket
 import time
 from collections import deque
 from pathlib import Path
 
+import numpy as np
 import torch
 from torch.utils.tensorboard import SummaryWriter
 from tqdm import tqdm
 
 CHECKPOINT = "checkpoint.pt"
+LOCK = ".lock"
+IDENTITY = ("task", "algo", "seed", "muscle_model", "options", "model_version", "config")
+BUDGET_FREE = ("frames",)  # algorithm config fields that are the run's budget, not its identity (DQN's `frames`)
 
 
 def write_json(path: Path, obj) -> None:
@@ -21,48 +36,160 @@ def write_json(path: Path, obj) -> None:
     os.replace(tmp, path)
 
 
+def identity_of(config: dict) -> dict:
+    ident = {key: config.get(key) for key in IDENTITY}
+    ident["options"] = ident["options"] or {}  # runs from before these fields were recorded: no options, model v1
+    ident["model_version"] = ident["model_version"] or "1"
+    ident["config"] = {k: v for k, v in (ident["config"] or {}).items() if k not in BUDGET_FREE}
+    return json.loads(json.dumps(ident, default=str))  # tuples as lists: what config.json holds
+
+
+def check_same_run(recorded: dict, new: dict, where: Path) -> None:
+    """ValueError naming the first field of the run's identity (or a shrinking budget) that differs."""
+    old, now = identity_of(recorded), identity_of(new)
+    for key in IDENTITY:
+        if key == "config":
+            for field in sorted(set(old[key]) | set(now[key])):
+                if old[key].get(field) != now[key].get(field):
+                    raise ValueError(f"{where} is a run with config field {field} = {old[key].get(field)!r}; this "
+                                     f"command asks for {now[key].get(field)!r}. A run's definition is fixed when it "
+                                     f"starts: use another --out for a new run")
+        elif old[key] != now[key]:
+            raise ValueError(f"{where} is a run with {key} = {old[key]!r}; this command asks for {now[key]!r}. A run's "
+                             f"definition is fixed when it starts: use another --out for a new run")
+    if int(new["frames"]) < int(recorded.get("frames", 0)):
+        raise ValueError(f"{where} is a run with a budget of {int(recorded['frames']):,} frames; --resume may only "
+                         f"keep or grow it, not shrink it to {int(new['frames']):,}")
+
+
+def recorded_config(folder: Path) -> dict | None:
+    """The config a run folder records (its checkpoint's if it has one, else config.json), or None."""
+    ckpt = folder / CHECKPOINT
+    if ckpt.exists():
+        return load_checkpoint(folder)["config"]
+    try:
+        return json.loads((folder / "config.json").read_text())
+    except FileNotFoundError:
+        return None
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{folder / 'config.json'} is unreadable ({exc}); delete the folder to start over") from exc
+
+
+def load_checkpoint(folder: Path) -> dict:
+    path = folder / CHECKPOINT
+    try:
+        ckpt = torch.load(path, map_location="cpu", weights_only=False)
+    except Exception as exc:
+        raise ValueError(f"checkpoint {path} is unreadable or corrupt ({exc}); delete it to start over") from exc
+    if not isinstance(ckpt, dict) or not {"frames", "config", "state"} <= set(ckpt):
+        raise ValueError(f"checkpoint {path} is not a shoulder_bench checkpoint")
+    return ckpt
+
+
+class FolderLock:
+    """An exclusive OS lock (flock) on `<folder>/.lock`, naming its holder; ValueError if another process has it."""
+
+    def __init__(self, folder: Path):
+        self.path = folder / LOCK
+        self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(self.fd, 4096, 0).decode(errors="replace").strip() or "another process"
+            os.close(self.fd)
+            raise ValueError(f"run folder {folder} is in use by {holder}; wait for it to finish or stop it, "
+                             f"or choose another --out") from None
+        os.ftruncate(self.fd, 0)
+        os.pwrite(self.fd, f"pid {os.getpid()} on {socket.gethostname()} since {time.strftime('%Y-%m-%d %H:%M:%S')}"
+                           .encode(), 0)
+
+    def release(self) -> None:
+        if self.fd is not None:
+            os.close(self.fd)  # closing the descriptor releases the lock
+            self.fd = None
+
+
 class Run:
+    """Use as a context manager: `with Run(out, config, resume) as run: ...`; the lock is held inside."""
+
     def __init__(self, out: Path, config: dict, resume: bool):
         self.dir = Path(out)
         self.config = config
-        ckpt = self.dir / CHECKPOINT
+        if self.dir.exists() and not self.dir.is_dir():
+            raise ValueError(f"--out {self.dir} is a file; give a folder for the run")
+        self._created = not self.dir.exists()
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.lock = FolderLock(self.dir)
+        self._wrote = False  # config.json / tb/ written by this process
+        try:
+            self._open(resume)
+        except BaseException:
+            self._discard()
+            raise
+
+    def _open(self, resume: bool) -> None:
+        has_ckpt = (self.dir / CHECKPOINT).exists()
         if (self.dir / "metrics.json").exists() and not resume:
             raise ValueError(f"{self.dir} holds a finished run; choose another --out (or delete it) to train again")
-        if ckpt.exists() and not resume:
+        if has_ckpt and not resume:
             raise ValueError(f"{self.dir} holds a checkpoint; pass --resume to continue it, or choose another --out")
-        self.checkpoint = self.load_checkpoint() if resume and ckpt.exists() else None
-        if self.checkpoint is not None:
-            saved = self.checkpoint["config"]
-            for key in ("task", "algo"):
-                if saved.get(key) != config.get(key):
-                    raise ValueError(f"checkpoint {ckpt} is a {saved.get('algo')} run on {saved.get('task')}, not "
-                                     f"{config.get('algo')} on {config.get('task')}")
-        self.dir.mkdir(parents=True, exist_ok=True)
-        write_json(self.dir / "config.json", config)
-        self.frames = 0 if self.checkpoint is None else int(self.checkpoint["frames"])
-        self.wall = 0.0 if self.checkpoint is None else float(self.checkpoint.get("wall_s", 0.0))
-        self.paper_frames = None if self.checkpoint is None else self.checkpoint.get("frames_to_paper_accuracy")
-        self.writer = SummaryWriter(str(self.dir / "tb"), purge_step=self.frames or None)
+        recorded = recorded_config(self.dir) if resume else None
+        if recorded is not None:
+            check_same_run(recorded, self.config, self.dir)
+        self.checkpoint = load_checkpoint(self.dir) if resume and has_ckpt else None
+        self.fresh = self.checkpoint is None
+        if self.fresh:  # no checkpoint to continue: start clean, never mixing with a killed attempt's events
+            shutil.rmtree(self.dir / "tb", ignore_errors=True)
+        self._wrote = True
+        write_json(self.dir / "config.json", self.config)
+        ckpt = self.checkpoint or {}
+        self.frames = int(ckpt.get("frames", 0))
+        self.wall = float(ckpt.get("wall_s", 0.0))
+        self.paper_frames = ckpt.get("frames_to_paper_accuracy")
+        # events logged after the checkpoint (steps > its frame count) belong to the lost attempt: purge them
+        self.writer = SummaryWriter(str(self.dir / "tb"), purge_step=self.frames + 1 if self.frames else None)
         self._t0 = time.perf_counter() - self.wall
-        self.returns = deque(maxlen=100)
+        self.returns = deque(ckpt.get("returns", ()), maxlen=100)
+        if "np_rng" in ckpt:
+            np.random.set_state(ckpt["np_rng"])
         self.bar = None
+        self.env = None  # the training env, whose state (episodes, RNGs) each checkpoint carries
+        self.saved = False  # a checkpoint was written by this process
 
-    def load_checkpoint(self) -> dict:
-        path = self.dir / CHECKPOINT
-        try:
-            ckpt = torch.load(path, map_location="cpu", weights_only=False)
-        except Exception as exc:
-            raise ValueError(f"checkpoint {path} is unreadable or corrupt ({exc}); delete it to start over") from exc
-        if not isinstance(ckpt, dict) or not {"frames", "config", "state"} <= set(ckpt):
-            raise ValueError(f"checkpoint {path} is not a shoulder_bench checkpoint")
-        return ckpt
+    def __enter__(self) -> Run:
+        return self
+
+    def __exit__(self, kind, exc, tb) -> None:
+        if self.bar is not None:
+            self.bar.close()
+        self.writer.close()
+        if kind is not None and self.fresh and not self.saved:
+            self._discard()  # failed or interrupted before anything worth resuming: leave nothing behind
+        else:
+            self.lock.release()
+
+    def _discard(self) -> None:
+        for name in ("config.json", "config.json.tmp", "tb") if self._wrote else ():
+            path = self.dir / name
+            shutil.rmtree(path, ignore_errors=True) if path.is_dir() else path.unlink(missing_ok=True)
+        self.lock.release()
+        if self._created:
+            (self.dir / LOCK).unlink(missing_ok=True)
+            try:
+                self.dir.rmdir()
+            except OSError:  # something else was put there meanwhile: leave it
+                pass
 
     def save_checkpoint(self, state: dict) -> None:
         path = self.dir / CHECKPOINT
         tmp = path.with_suffix(".tmp")
+        if self.env is not None:
+            state = {**state, "env": self.env.state_dict()}
         torch.save({"frames": self.frames, "config": self.config, "state": state, "wall_s": self.elapsed(),
-                    "frames_to_paper_accuracy": self.paper_frames}, tmp)
+                    "frames_to_paper_accuracy": self.paper_frames, "returns": list(self.returns),
+                    "np_rng": np.random.get_state()}, tmp)
         os.replace(tmp, path)
+        self.saved = True
 
     def elapsed(self) -> float:
         return time.perf_counter() - self._t0
@@ -86,10 +213,7 @@ class Run:
             self.bar.set_postfix(post)
 
     def finish(self, metrics: dict) -> dict:
-        if self.bar is not None:
-            self.bar.close()
         metrics = {**metrics, "frames": self.frames, "wall_s": round(self.elapsed(), 2),
                    "frames_to_paper_accuracy": self.paper_frames}
         write_json(self.dir / "metrics.json", metrics)
-        self.writer.close()
         return metrics
