@@ -1,5 +1,10 @@
 """`shoulder-bench sweep`: the grid, a tiny sweep on the local pool and on a local Ray instance, resume, failures."""
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
 
 import pytest
 
@@ -36,6 +41,10 @@ def test_bad_grids_and_configs_fail_before_any_run(tmp_path, capsys):
         read_configs([f"ppo={_cfg(tmp_path, 'bad.json', {'bogus': 1})}"])
     with pytest.raises(ValueError, match="ALGO=FILE"):
         read_configs(["ppo.json"])
+    with pytest.raises(ValueError, match=r"--config ppo: num_envs = 0 is out of range"):  # values too, before any run
+        grid(["abduction_ssp"], ["ppo"], [0], configs=read_configs([f"ppo={_cfg(tmp_path, 'z', {'num_envs': 0})}"]))
+    with pytest.raises(ValueError, match="--eval-every"):
+        grid(["abduction_ssp"], ["ppo"], [0], eval_every=0)
     out = tmp_path / "runs"
     assert main(["sweep", "--tasks", "abduction_ssp", "--algos", "ppo", "--out", str(out), "--config",
                  f"dqn={_cfg(tmp_path, 'd.json', {})}"]) == 2
@@ -46,13 +55,16 @@ def test_bad_grids_and_configs_fail_before_any_run(tmp_path, capsys):
 def test_local_sweep_resumes_and_reports_a_failed_run(tmp_path, capsys):
     out = tmp_path / "runs"
     ppo = _cfg(tmp_path, "ppo.json", PPO)
-    broken = _cfg(tmp_path, "bdq.json", {"num_envs": 0})  # valid fields, fails when the run starts
+    bdq = _cfg(tmp_path, "bdq.json", {"num_envs": 8})
+    for seed in (0, 1):  # a valid grid whose bdq runs fail when they start: their checkpoints are corrupt
+        (out / f"abduction_4m_discrete/bdq/{seed}").mkdir(parents=True)
+        (out / f"abduction_4m_discrete/bdq/{seed}/checkpoint.pt").write_bytes(b"garbage")
     args = ["sweep", "--tasks", "abduction_ssp", "abduction_4m_discrete", "--algos", "ppo", "bdq", "--seeds", "0", "1",
-            "--frames", "256", "--eval-every", "1000000", "--config", f"ppo={ppo}", "--config", f"bdq={broken}",
+            "--frames", "256", "--eval-every", "1000000", "--config", f"ppo={ppo}", "--config", f"bdq={bdq}",
             "--out", str(out), "--workers", "2"]
     assert main(args) == 1  # a failed run makes the sweep fail ...
     text = capsys.readouterr().out
-    assert "abduction_4m_discrete/bdq/0 failed (exit 2)" in text and "num_envs must be at least 1" in text
+    assert "abduction_4m_discrete/bdq/0 failed (exit 2)" in text and "unreadable or corrupt" in text
     summary = {r["run"]: r for r in json.loads((out / "sweep.json").read_text())}
     assert [summary[f"abduction_ssp/ppo/{s}"]["status"] for s in (0, 1)] == ["done", "done"]  # ... not the others
     assert summary["abduction_4m_discrete/bdq/1"]["status"] == "failed"
@@ -86,3 +98,77 @@ def test_sweep_on_a_local_ray_instance(tmp_path):
         folder = out / f"abduction_ssp/ppo/{seed}"
         assert {"metrics.json", "policy.pt", "checkpoint.pt", "train.log"} <= {p.name for p in folder.iterdir()}
     assert [r["status"] for r in sweep(jobs, out, ray_address="local", progress=False)] == ["skipped (finished)"] * 2
+
+
+def _sweep_cmd(out, cfg):
+    return [sys.executable, "-m", "shoulder_bench.cli", "sweep", "--tasks", "abduction_ssp", "--algos", "ppo",
+            "--seeds", "0", "1", "2", "--frames", "100000000", "--eval-every", "100000000", "--config", f"ppo={cfg}",
+            "--out", str(out), "--workers", "1"]
+
+
+def _running_child(out, seed=0, timeout=120):
+    """pid of the training process holding the run's lock (once it has taken it)."""
+    lock = out / f"abduction_ssp/ppo/{seed}/.lock"
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        text = lock.read_text() if lock.exists() else ""
+        if text.startswith("pid "):
+            return int(text.split()[1])
+        time.sleep(0.1)
+    raise AssertionError(f"no run took {lock}")
+
+
+def _gone(pid, timeout=30):
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return True
+        time.sleep(0.1)
+    return False
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_interrupting_a_sweep_stops_it_and_its_children(tmp_path, sig):
+    out = tmp_path / "runs"
+    proc = subprocess.Popen(_sweep_cmd(out, _cfg(tmp_path, "ppo.json", PPO)), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    child = _running_child(out)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert _gone(child), "the training child outlived the sweep"
+    summary = {r["run"]: r["status"] for r in json.loads((out / "sweep.json").read_text())}
+    assert summary == {"abduction_ssp/ppo/0": "interrupted", "abduction_ssp/ppo/1": "not started",
+                       "abduction_ssp/ppo/2": "not started"}
+    assert "interrupted" in err and "not started" in err and "Traceback" not in err
+    assert not (out / "abduction_ssp/ppo/1").exists()  # queued runs never started
+
+
+@pytest.mark.slow
+def test_a_killed_sweep_takes_its_child_along(tmp_path):
+    out = tmp_path / "runs"
+    proc = subprocess.Popen(_sweep_cmd(out, _cfg(tmp_path, "ppo.json", PPO)), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    child = _running_child(out)
+    proc.kill()
+    proc.wait()
+    assert _gone(child), "the training child outlived a kill -9 of the sweep"
+
+
+def test_a_concurrent_run_into_a_locked_folder_fails_with_the_holder(tmp_path):
+    from shoulder_bench.train.run import FolderLock
+
+    out = tmp_path / "runs"
+    (out / "abduction_ssp/ppo/0").mkdir(parents=True)
+    lock = FolderLock(out / "abduction_ssp/ppo/0")
+    try:
+        jobs, _ = grid(["abduction_ssp"], ["ppo"], [0], frames=128, configs=read_configs(
+            [f"ppo={_cfg(tmp_path, 'ppo.json', PPO)}"]))
+        records = sweep(jobs, out, workers=1, progress=False)
+    finally:
+        lock.release()
+    assert records[0]["status"] == "failed"
+    assert f"in use by pid {os.getpid()}" in (out / "abduction_ssp/ppo/0/train.log").read_text()
