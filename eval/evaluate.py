@@ -66,6 +66,10 @@ def check_policy_file(spec: str) -> Path:
     checkpoint or some other file; the loader still checks its contents."""
     from shoulder_bench.train.policy import resolve
 
+    folder = Path(spec)
+    if folder.is_dir() and not (folder / "policy.pt").exists() and (folder / "checkpoint.pt").exists():
+        raise FileNotFoundError(f"run folder {folder} has no policy.pt yet, only a training checkpoint: the run has "
+                                f"not finished (shoulder-bench train --resume --out {folder} ... continues it)")
     path = resolve(spec)
     fix = "give a run folder, its policy.pt, pretrained:NAME or reference"
     try:

@@ -91,6 +91,9 @@ def test_eval_policy_that_is_a_checkpoint_or_not_a_policy(tmp_path, capsys, no_w
     msg = _error(capsys, ["eval", "--policy", str(ckpt)])
     assert msg.startswith(f"policy file {ckpt} is a training checkpoint, not an exported policy")
     assert "give a run folder, its policy.pt, pretrained:NAME or reference" in msg and "actor_state_dict" not in msg
+    assert _error(capsys, ["eval", "--policy", str(tmp_path)]) == (
+        f"run folder {tmp_path} has no policy.pt yet, only a training checkpoint: the run has not finished "
+        f"(shoulder-bench train --resume --out {tmp_path} ... continues it)")
     notes = tmp_path / "notes.txt"
     notes.write_text("not a policy")
     assert _error(capsys, ["plot", "errors", "--policy", str(notes), "--out", str(tmp_path / "e.png")]).startswith(
