@@ -62,9 +62,9 @@ def _mean_std(values) -> tuple[float, float]:
 
 def model_version() -> str:
     """The version of the model the board evaluates on now (the reference controller's rows)."""
-    from shoulder_bench import anatomy
+    from shoulder_bench.anatomy import MODEL_VERSION
 
-    return str(getattr(anatomy, "MODEL_VERSION", "1"))  # "1": models from before versions were recorded
+    return str(MODEL_VERSION)
 
 
 def setting_of(info: dict) -> dict:
