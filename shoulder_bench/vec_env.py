@@ -17,6 +17,7 @@ from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
 from shoulder_bench.muscle import ForceLaw
 from shoulder_bench.simulator import BatchSimulator
 from shoulder_bench.tasks import TASKS, _check
+from shoulder_bench.tasks import options as options_check
 from shoulder_bench.tasks.abduction import VALID_MARGIN_DEG, Abduction, _as_trajectory
 
 MAX_ABS = 1e10  # MuJoCo's mjMAXVAL: beyond it the single env's MuJoCo would warn (a crash)
@@ -29,8 +30,9 @@ class VecEnv(_RslVecEnv):
     def __init__(self, name: str, num_envs: int, device: str = "cpu", seed=None, trajectory=None,
                  muscle_model: str = DEFAULT_MUSCLE_MODEL, nthread: int = 2, **options):
         muscles, discrete, _ = TASKS[_check(name)]
-        if num_envs < 1:
-            raise ValueError(f"num_envs must be at least 1, got {num_envs}")
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        seed = options_check.seed(seed)
         self.name, self.num_envs, self.device = name, int(num_envs), torch.device(device)
         fixed = trajectory if isinstance(trajectory, (list, tuple)) else [trajectory] * self.num_envs
         if len(fixed) != self.num_envs:
@@ -123,7 +125,9 @@ class VecEnv(_RslVecEnv):
         self.episode_length_buf += 1
         extras = {"time_outs": torch.as_tensor(time_out, device=self.device)}
         finished = np.flatnonzero(done)
+        self.last_final_obs = None  # (N, 4 + n) float64 where `done`: each ended episode's last observation
         if finished.size:
+            self.last_final_obs = self.observation_array()
             extras["log"] = {"/episode/return": float(self._return[finished].mean()),
                              "/episode/length": float(self.frames[finished].mean()),
                              "/episode/mae_deg": float((self._abs_err[finished] / self.frames[finished]).mean()),

@@ -23,16 +23,6 @@ from shoulder_bench.tasks.gym_env import action_space, in_space, observation_spa
 from shoulder_bench.vec_env import VecEnv
 
 
-class _Batched(VecEnv):
-    """The rsl-rl VecEnv, keeping the observations from just before each auto-reset (the episodes' last ones)."""
-
-    observations_before_reset: np.ndarray | None = None
-
-    def _reset(self, idx) -> None:
-        self.observations_before_reset = self.observation_array()
-        super()._reset(idx)
-
-
 class ShoulderVectorEnv(VectorEnv):
     """N copies of a task in lockstep; copy i draws its targets with seed + i, as gymnasium's SyncVectorEnv seeds its
     copies, so its first episode equals `gymnasium.make(id)`'s after `reset(seed=seed + i)` with the same actions."""
@@ -45,7 +35,7 @@ class ShoulderVectorEnv(VectorEnv):
                              f"env: gymnasium.make(id, render_mode='rgb_array')")
         muscles, discrete, _ = TASKS[_check(name)]
         self.name, self.options, self.render_mode = name, options, None
-        self.batched = _Batched(name, num_envs, seed=opt.seed(seed), **options)
+        self.batched = VecEnv(name, num_envs, seed=opt.seed(seed), **options)
         self._fresh = True  # its first targets are drawn and not yet used: the first reset keeps them
         self.num_envs = self.batched.num_envs
         self.single_observation_space = observation_space(len(muscles))
@@ -58,7 +48,7 @@ class ShoulderVectorEnv(VectorEnv):
         if seed is not None:
             seed = opt.seed(seed)
             self.batched.close()
-            self.batched = _Batched(self.name, self.num_envs, seed=seed, **self.options)
+            self.batched = VecEnv(self.name, self.num_envs, seed=seed, **self.options)
             self._fresh = True
         super().reset(seed=seed)
         if not self._fresh:
@@ -76,7 +66,7 @@ class ShoulderVectorEnv(VectorEnv):
         raw = b.observation_array()
         infos = self._infos(raw, np.where(done, raw[:, 0], b.last_target_deg))
         if done.any():
-            final = self._in_space(b.observations_before_reset[done])
+            final = self._in_space(b.last_final_obs[done])
             infos["final_obs"] = np.full(self.num_envs, None, dtype=object)
             infos["final_obs"][np.flatnonzero(done)] = list(final)
             infos["_final_obs"] = done.copy()

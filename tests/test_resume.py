@@ -225,3 +225,16 @@ def test_train_help_states_the_default_budgets(capsys):
     with pytest.raises(SystemExit):
         main(["train", "--help"])
     assert "default: ppo 1,600,000, dqn 200,000, bdq 500,000" in " ".join(capsys.readouterr().out.split())
+
+
+def test_a_checkpoint_without_the_algorithm_state_is_a_clear_error(tmp_path, capsys):
+    cfg = _file(tmp_path, PPO)
+    out = tmp_path / "run"
+    train("abduction_ssp", "ppo", frames=128, out=out, config=cfg, eval_every=10**9)
+    (out / "metrics.json").unlink()
+    ckpt = torch.load(out / "checkpoint.pt", weights_only=False)
+    ckpt["state"]["alg"] = {"critic_state_dict": {}}
+    torch.save(ckpt, out / "checkpoint.pt")
+    assert main(["train", "--task", "abduction_ssp", "--algo", "ppo", "--frames", "256", "--out", str(out),
+                 "--config", str(cfg), "--resume"]) == 2
+    assert "checkpoint.pt holds no PPO state" in capsys.readouterr().err

@@ -93,3 +93,11 @@ def test_bench_quick(capsys):
     assert main(["bench", "--quick", "--json"]) == 0
     out = capsys.readouterr().out
     assert "bare MuJoCo" in out and '"gym_sim_s_per_s"' in out.splitlines()[-1]
+
+
+@pytest.mark.parametrize("kw,message", [({"seed": "abc"}, "seed must be None or an integer"),
+                                        ({"seed": True}, "seed must be None or an integer"),
+                                        ({"num_envs": 2.5}, "num_envs must be an integer >= 1")])
+def test_bad_seed_or_count_is_a_clear_error(kw, message):
+    with pytest.raises(ValueError, match=message):
+        shoulder_bench.make_vec("abduction_4m", **{"num_envs": 2} | kw)

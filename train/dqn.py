@@ -373,7 +373,11 @@ def train(run, venv, cfg: DQNConfig, frames: int, evaluate_every, on_eval) -> to
     n = venv.num_actions
     agent = DQNAgent(cfg, obs_dim=venv.get_observations()["policy"].shape[1], n_branches=n)
     if run.checkpoint is not None:
-        agent.load_state_dict(run.checkpoint["state"]["agent"])
+        try:
+            agent.load_state_dict(run.checkpoint["state"]["agent"])
+        except (KeyError, RuntimeError, TypeError) as exc:
+            raise ValueError(f"{run.dir / 'checkpoint.pt'} holds no DQN state this config can load ({exc}); delete "
+                             f"it to start over") from exc
     next_eval = [evaluate_every(run.frames)]
 
     def on_log(info: dict) -> None:

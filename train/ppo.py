@@ -127,8 +127,12 @@ def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval) -> to
         runner = OnPolicyRunner(env, rsl_config(cfg, venv.num_actions), log_dir=None, device="cpu")
     alg = runner.alg
     if run.checkpoint is not None:
-        alg.load(run.checkpoint["state"]["alg"], None, True)
-        torch.set_rng_state(run.checkpoint["state"]["torch_rng"])
+        try:
+            alg.load(run.checkpoint["state"]["alg"], None, True)
+            torch.set_rng_state(run.checkpoint["state"]["torch_rng"])
+        except (KeyError, RuntimeError, TypeError) as exc:
+            raise ValueError(f"{run.dir / 'checkpoint.pt'} holds no PPO state this config can load ({exc}); delete "
+                             f"it to start over") from exc
     obs = env.get_observations()
     alg.train_mode()
     per_iteration = frames_per_iteration(cfg)
