@@ -219,9 +219,9 @@ def _eval(args) -> int:
     from shoulder_bench.eval.evaluate import evaluate, policy_for, trajectories_for
     from shoulder_bench.tasks import TASKS
 
+    trajs = trajectories_for(args.trajectories)  # a bad file fails before the policy loads
     policy, meta, task = policy_for(args.policy, args.task)
-    trajs = trajectories_for(args.trajectories)
-    m = evaluate(policy, task, trajs, muscle_model=meta.get("muscle_model"))
+    m = evaluate(policy, task, trajs, muscle_model=meta.get("muscle_model"), options=meta.get("options"))
     for i, (mae, rmse, crashed) in enumerate(zip(*m["per_trajectory"].values())):
         print(f"trajectory {i:3d}: MAE {mae:6.2f} deg  RMSE {rmse:6.2f} deg{'  CRASHED' if crashed else ''}")
     m["latency_ms"] = inference_latency_ms(policy, 4 + len(TASKS[task][0]))
