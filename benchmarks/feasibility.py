@@ -17,6 +17,7 @@ from shoulder_bench import statics
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
 from shoulder_bench.muscle import ForceLaw
 from shoulder_bench.trajectory import load_test_set
+from shoulder_bench.validate import static_capacity, static_reach
 
 
 def main() -> None:
@@ -32,23 +33,15 @@ def main() -> None:
     print("angle (deg)            " + " ".join(f"{a:6.0f}" for a in angles))
     print("all at a = 1 (N m)     " + " ".join(f"{t:6.2f}" for t in full))
     print("gravity needs (N m)    " + " ".join(f"{t:6.2f}" for t in -statics.gravity_torque(rad)))
-    def capacity(rad_: np.ndarray) -> np.ndarray:
-        """Largest elevating torque at rest: each muscle fully on if that helps, off otherwise."""
-        ones, zeros = np.ones((len(rad_), len(args.muscles))), np.zeros((len(rad_), len(args.muscles)))
-        v = np.zeros_like(rad_)
-        return np.maximum(law.torque(rad_, v, ones), law.torque(rad_, v, zeros)).sum(axis=1)
-
     test = load_test_set()
     hold = np.stack([statics.holding_activation(law, t.angle_deg) for t in test])  # (100, 201, n)
     allang = np.radians(np.concatenate([t.angle_deg for t in test]))
-    cap = capacity(allang)
+    cap = static_capacity(law, allang)
     unreachable = cap < -statics.gravity_torque(allang)
     rate = np.abs(np.diff(hold, axis=1)).max(axis=2) > 0.01
     print(f"test frames the muscles cannot hold even at activation 1: {unreachable.mean():.1%}")
     print(f"test steps whose holding activation changes faster than 1 %/frame: {rate.mean():.1%}")
-    fine = np.radians(np.arange(0.0, 160.0, 0.1))
-    holdable = capacity(fine) >= -statics.gravity_torque(fine)
-    top = np.degrees(fine[holdable].max())
+    top = static_reach(law)  # held at rest at every angle from 0 up to top (0.1 deg grid)
     target = np.degrees(allang)
     print(f"highest angle held at rest: {top:.1f} deg; quasi-static lower bound on the test MAE (targets above it "
           f"cannot be reached for long): {np.maximum(target - top, 0).mean():.2f} deg")

@@ -1,0 +1,337 @@
+"""`shoulder-bench model validate [--json] [--out DIR]`: the model against the reference moment arms and the
+literature targets of the model-v2 issue (docs/validation.md); exit status 1 when any target is missed.
+
+Moment arms come from MuJoCo (the tendon Jacobian, `model.tendon_geometry`; r = -dL/dq, + elevates, as in the
+references); rest posture, passive torque, peak isometric torques, capacity and reach from the tabled force law.
+Every target is evaluated on what the model can pose; what it cannot (a plane, a girdle mode or a degree of freedom
+it lacks) fails with the reason, so a model that lacks it is never reported as meeting it.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from shoulder_bench import anatomy, references, statics
+from shoulder_bench.model import DEFAULT_MUSCLE_MODEL, JOINT, MODEL_PATH, MODELS_DIR, compile_model, tendon_geometry
+
+ELEVATIONS = np.arange(0.0, 121.0, 10.0)  # the references' grid over the issue's range, 0-120 deg
+FINE = np.arange(0.0, 120.0 + 1e-9, 1.0)  # model-only checks
+ENVELOPE_MARGIN_MM = 3.0
+RMSE_BOUND_MM = 5.0
+EARLY_DEG = 10.0  # "the start of abduction": 0-10 deg
+DMI_AT_SIDE_MAX_MM = 17.0
+DMI_PEAK_DEG = (60.0, 90.0)
+DMI_PEAK_MM = (25.0, 35.0)
+REST_MAX_DEG = 5.0
+PASSIVE_MAX_DEG = 20.0
+PASSIVE_MAX_NM = 0.5
+PEAK_TORQUE_TOL = 0.30
+SIGN_MUSCLES = {"isp": "an external rotator", "ld": "an internal rotator"}
+TOL = 1e-9  # float slack on the bounds
+NOT_MODELLED = "not modelled (v1: 1-DOF coronal hinge, fixed girdle)"
+PLANE_NAMES = {v: k for k, v in references.PLANES.items()}
+
+
+@dataclass(frozen=True)
+class ModelView:
+    """What the MJCF can pose: the reference coordinates it has a DOF for, the planes it elevates in, its girdle."""
+    coordinates: tuple
+    planes: tuple
+    girdle: str
+    task_plane: int
+    missing: str  # the reason given for what it cannot pose
+
+    def describe(self) -> str:
+        planes = ", ".join(f"{PLANE_NAMES.get(p, p)} ({p} deg)" for p in self.planes)
+        dofs = ", ".join(references.DOF_LABELS[c] for c in self.coordinates)
+        return f"DOFs {dofs}; elevates in the {planes} plane; girdle {self.girdle}; tasks in plane {self.task_plane}"
+
+
+def inspect_model(path: Path | str = MODEL_PATH) -> ModelView:
+    m = compile_model(path)
+    joints = [m.joint(j).name for j in range(m.njnt)]
+    if joints == [JOINT] and np.allclose(m.jnt_axis[0], (1.0, 0.0, 0.0)):  # v1: abduction about +x (anterior)
+        return ModelView(("shoulder_elv",), (0,), "fixed", 0, NOT_MODELLED)
+    raise ValueError(f"{path}: validate knows the v1 model (one '{JOINT}' hinge about +x); this model has joints "
+                     f"{joints}: teach shoulder_bench.validate.inspect_model its coordinates, planes and girdle")
+
+
+def model_moment_arms(angles_deg, path: Path | str = MODEL_PATH) -> dict[str, np.ndarray]:
+    """Elevation moment arms (mm, + elevates) of the MJCF tendons at the given hinge angles (MuJoCo's ten_J)."""
+    return {k: 1000.0 * v for k, v in tendon_geometry(np.asarray(angles_deg, dtype=float), path)[1].items()}
+
+
+def model_curve(view: ModelView, arms: dict, muscle: str, coordinate: str, plane: int, girdle: str):
+    """(model curve in mm or None, note) for a reference condition; a fixed girdle stands in for a coupled one."""
+    if coordinate not in view.coordinates or plane not in view.planes:
+        return None, view.missing
+    note = "" if girdle == view.girdle else f"model girdle {view.girdle}"
+    return arms[muscle], note
+
+
+def rmse(a, b) -> float:
+    return float(np.sqrt(np.mean((np.asarray(a, float) - np.asarray(b, float)) ** 2)))
+
+
+def envelope_excursion(model_mm, refs: dict, margin: float = ENVELOPE_MARGIN_MM) -> dict:
+    """How far (mm) the model curve leaves the references' [min, max] +- margin, worst point; 0 when inside."""
+    stack = np.stack(list(refs.values()))
+    lo, hi = stack.min(axis=0) - margin, stack.max(axis=0) + margin
+    model_mm = np.asarray(model_mm, float)
+    out = np.maximum(np.maximum(lo - model_mm, model_mm - hi), 0.0)
+    k = int(np.argmax(out))
+    return {"outside_mm": float(out[k]), "index": k, "model_mm": float(model_mm[k]), "lo_mm": float(lo[k]),
+            "hi_mm": float(hi[k])}
+
+
+def best_rmse(model_mm, refs: dict) -> tuple[str, float]:
+    errors = {name: rmse(model_mm, r) for name, r in refs.items()}
+    name = min(errors, key=errors.get)
+    return name, errors[name]
+
+
+def inside_envelope(model_mm, refs: dict, margin: float = ENVELOPE_MARGIN_MM) -> tuple[bool, dict]:
+    """The envelope target: the curve nowhere leaves the references' [min, max] +- margin."""
+    env = envelope_excursion(model_mm, refs, margin)
+    return env["outside_mm"] <= TOL, env
+
+
+def near_one(model_mm, refs: dict, bound: float = RMSE_BOUND_MM) -> tuple[bool, str, float]:
+    """The RMSE target: within `bound` mm RMSE of at least one reference (the closest, returned)."""
+    name, err = best_rmse(model_mm, refs)
+    return err <= bound + TOL, name, err
+
+
+def target(tid: str, text: str, passed: bool, measured: str, bound: str, note: str = "") -> dict:
+    return {"id": tid, "target": text, "passed": bool(passed), "measured": measured, "bound": bound, "note": note}
+
+
+def static_capacity(law, angle_rad) -> np.ndarray:
+    """Largest elevating torque at rest (N m): each muscle of the law fully on where that helps, off otherwise."""
+    angle_rad = np.atleast_1d(np.asarray(angle_rad, dtype=float))
+    n = len(law.muscles)
+    ones, zeros, v = np.ones((len(angle_rad), n)), np.zeros((len(angle_rad), n)), np.zeros_like(angle_rad)
+    return np.maximum(law.torque(angle_rad, v, ones), law.torque(angle_rad, v, zeros)).sum(axis=1)
+
+
+def static_reach(law, step_deg: float = 0.1, top_deg: float = anatomy.JOINT_RANGE_DEG[1]):
+    """How high the law's muscles can hold the humerus at rest against gravity: the highest angle (deg, on a
+    `step_deg` grid from 0 below `top_deg`) up to which every angle from 0 can be held; None if not even 0."""
+    fine = np.radians(np.arange(0.0, top_deg, step_deg))
+    holdable = static_capacity(law, fine) >= -statics.gravity_torque(fine)
+    first_not = len(fine) if holdable.all() else int(np.argmin(holdable))
+    return float(np.degrees(fine[first_not - 1])) if first_not else None
+
+
+def passive_torque(law, angle_deg) -> np.ndarray:
+    """Net passive muscle torque (N m, + elevates) at rest with every activation 0."""
+    a = np.radians(np.atleast_1d(np.asarray(angle_deg, dtype=float)))
+    return law.torque(a, np.zeros_like(a), np.zeros((len(a), len(law.muscles)))).sum(axis=1)
+
+
+def relaxed_rest_angle(law, step_deg: float = 0.1) -> float:
+    """Where the relaxed arm (activations 0) settles when let go hanging (0 deg): the first angle, in the direction
+    the net torque (passive + gravity) pushes it, where that torque changes sign (linear interpolation), or the
+    joint limit it is pushed to."""
+    lo, hi = anatomy.JOINT_RANGE_DEG
+
+    def net(deg):
+        return passive_torque(law, deg) + statics.gravity_torque(np.radians(deg))
+
+    t0 = float(net(0.0)[0])
+    if t0 == 0.0:
+        return 0.0
+    sign = 1.0 if t0 > 0 else -1.0
+    deg = np.arange(0.0, (hi if sign > 0 else -lo) + 1e-9, step_deg) * sign
+    t = net(deg) * sign
+    k = np.nonzero((t[:-1] > 0) & (t[1:] <= 0))[0]
+    if not len(k):
+        return float(deg[-1])
+    k = int(k[0])
+    return float(deg[k] + (deg[k + 1] - deg[k]) * t[k] / (t[k] - t[k + 1]))
+
+
+def isometric_torque(law, angle_deg) -> np.ndarray:
+    """(B, n) active isometric torque at full activation (a = 1 minus a = 0, N m), as `fem verify` takes it."""
+    a = np.radians(np.atleast_1d(np.asarray(angle_deg, dtype=float)))
+    v, n = np.zeros_like(a), len(law.muscles)
+    return law.torque(a, v, np.ones((len(a), n))) - law.torque(a, v, np.zeros((len(a), n)))
+
+
+def moment_arm_section(view: ModelView, refs: references.ReferenceTables, arms: dict) -> dict:
+    rows, curves = [], {}
+    for m in anatomy.MUSCLES:
+        for coord in references.COORDINATES:
+            for plane in references.PLANES.values():
+                for girdle in references.GIRDLES:
+                    ref = {r: refs.curve(r, m, coord, plane, girdle, ELEVATIONS) for r in references.REFERENCES}
+                    curves[f"{m}/{coord}/{plane}/{girdle}"] = {r: np.round(v, 3).tolist() for r, v in ref.items()}
+                    mine, note = model_curve(view, arms, m, coord, plane, girdle)
+                    errs = {r: None if mine is None else rmse(mine, v) for r, v in ref.items()}
+                    rows.append({"muscle": m, "coordinate": coord, "plane_deg": plane, "girdle": girdle,
+                                 "rmse_mm": errs, "note": note})
+    model = {m: np.round(v, 3).tolist() for m, v in arms.items()}
+    return {"elevation_deg": ELEVATIONS.tolist(), "model_mm": model, "references_mm": curves, "rmse": rows}
+
+
+def _moment_arm_targets(view, refs, arms, fine, cond) -> list[dict]:
+    tp, out = view.task_plane, []
+    for m in anatomy.MUSCLES:
+        mine, note = model_curve(view, arms, m, "shoulder_elv", tp, "coupled")
+        excluded = references.ENVELOPE_EXCLUDED.get(m, {})
+        used = {r: refs.curve(r, m, "shoulder_elv", tp, "coupled", ELEVATIONS) for r in references.REFERENCES
+                if r not in excluded}
+        names = ", ".join(references.SHORT[r] for r in used)
+        note = "; ".join([note] * bool(note) + [f"{references.SHORT[r]} left out: {w}" for r, w in excluded.items()])
+        text_env = f"{m} elevation moment arm inside the envelope of {names} +- {ENVELOPE_MARGIN_MM:g} mm ({cond})"
+        text_rmse = f"{m} elevation moment arm within {RMSE_BOUND_MM:g} mm RMSE of one of {names} ({cond})"
+        if mine is None:
+            out += [target(f"envelope/{m}", text_env, False, "-", "0 mm outside", view.missing),
+                    target(f"rmse/{m}", text_rmse, False, "-", f"<= {RMSE_BOUND_MM:g} mm", view.missing)]
+            continue
+        ok, env = inside_envelope(mine, used)
+        out.append(target(f"envelope/{m}", text_env, ok,
+                          f"{env['outside_mm']:.1f} mm outside at {ELEVATIONS[env['index']]:g} deg (model "
+                          f"{env['model_mm']:.1f}, envelope {env['lo_mm']:.1f}..{env['hi_mm']:.1f})",
+                          "0 mm outside", note))
+        ok, name, err = near_one(mine, used)
+        out.append(target(f"rmse/{m}", text_rmse, ok,
+                          f"closest {references.SHORT[name]} {err:.1f} mm", f"<= {RMSE_BOUND_MM:g} mm", note))
+    # the start of abduction (cadaver and review literature), on the model's own curve every 1 deg
+    ids = ("early/ssp_above_dmi", "early/dmi_at_side", "early/dmi_peak_angle", "early/dmi_peak")
+    texts = (f"ssp elevation moment arm above dmi's at 0-{EARLY_DEG:g} deg", "dmi moment arm small near the side",
+             f"dmi moment arm largest at {DMI_PEAK_DEG[0]:g}-{DMI_PEAK_DEG[1]:g} deg",
+             f"dmi peak moment arm about {DMI_PEAK_MM[0]:g}-{DMI_PEAK_MM[1]:g} mm")
+    bounds = ("> 0 mm", f"<= {DMI_AT_SIDE_MAX_MM:g} mm at 0 deg", f"{DMI_PEAK_DEG[0]:g}-{DMI_PEAK_DEG[1]:g} deg",
+              f"{DMI_PEAK_MM[0]:g}-{DMI_PEAK_MM[1]:g} mm")
+    ssp, note = model_curve(view, fine, "ssp", "shoulder_elv", tp, "coupled")
+    if ssp is None:
+        return out + [target(i, t, False, "-", b, view.missing) for i, t, b in zip(ids, texts, bounds)]
+    dmi = fine["dmi"]
+    early = FINE <= EARLY_DEG + TOL
+    d = ssp[early] - dmi[early]
+    k, kp = int(np.argmin(d)), int(np.argmax(dmi))
+    measured = (f"ssp - dmi {d[k]:+.1f} mm at {FINE[k]:g} deg (ssp {ssp[0]:.1f}, dmi {dmi[0]:.1f} at 0 deg)",
+                f"{dmi[0]:.1f} mm", f"peak at {FINE[kp]:g} deg", f"{dmi[kp]:.1f} mm")
+    passed = (d.min() > 0, dmi[0] <= DMI_AT_SIDE_MAX_MM + TOL,
+              DMI_PEAK_DEG[0] - TOL <= FINE[kp] <= DMI_PEAK_DEG[1] + TOL,
+              DMI_PEAK_MM[0] - TOL <= dmi[kp] <= DMI_PEAK_MM[1] + TOL)
+    return out + [target(*row, note) for row in zip(ids, texts, passed, measured, bounds)]
+
+
+def _force_targets(view, refs, law, cond) -> tuple[list[dict], dict]:
+    out = []
+    rest = relaxed_rest_angle(law)
+    out.append(target("rest_angle", "the relaxed arm rests near hanging (activations 0: passive torque + gravity)",
+                      abs(rest) <= REST_MAX_DEG + TOL, f"{rest:.1f} deg", f"within {REST_MAX_DEG:g} deg of 0 deg"))
+    pdeg = np.arange(0.0, PASSIVE_MAX_DEG + 1e-9, 0.5)
+    passive = passive_torque(law, pdeg)
+    k = int(np.argmax(np.abs(passive)))
+    out.append(target("passive_torque", f"net passive muscle torque small over 0-{PASSIVE_MAX_DEG:g} deg",
+                      abs(passive[k]) < PASSIVE_MAX_NM, f"{passive[k]:+.2f} N m at {pdeg[k]:g} deg",
+                      f"|torque| < {PASSIVE_MAX_NM:g} N m"))
+    iso = isometric_torque(law, FINE)
+    peaks = {}
+    girdle_note = "" if view.girdle == "coupled" else f"model girdle {view.girdle}"
+    for i, m in enumerate(law.muscles):
+        k = int(np.argmax(np.abs(iso[:, i])))
+        ref = references.FOLLOWS[m][0]
+        r_peak, at = refs.peak(ref, m, "shoulder_elv", view.task_plane, "coupled", ELEVATIONS)
+        expected = anatomy.F0[m] * r_peak / 1000.0
+        ratio = float(iso[k, i] / expected) if expected else None  # a reference without moment arm: no target
+        peaks[m] = {"peak_Nm": float(iso[k, i]), "at_deg": float(FINE[k]), "follows": ref, "ref_peak_mm": r_peak,
+                    "ref_peak_deg": at, "F0_N": anatomy.F0[m], "expected_Nm": expected, "ratio": ratio}
+        out.append(target(f"peak_torque/{m}", f"{m} peak isometric torque within +-{PEAK_TORQUE_TOL:.0%} of F0 x "
+                          f"the peak moment arm of {references.SHORT[ref]} ({cond})",
+                          ratio is not None and abs(ratio - 1.0) <= PEAK_TORQUE_TOL + TOL,
+                          f"{iso[k, i]:+.2f} N m at {FINE[k]:g} deg; {anatomy.F0[m]:g} N x {r_peak:+.1f} mm "
+                          f"(at {at:g} deg) = {expected:+.2f} N m; ratio " + ("-" if ratio is None else f"{ratio:.2f}"),
+                          f"ratio {1 - PEAK_TORQUE_TOL:.2f}-{1 + PEAK_TORQUE_TOL:.2f}", girdle_note))
+    return out, {"relaxed_rest_deg": rest, "passive_angle_deg": pdeg.tolist(),
+                 "passive_torque_Nm": passive.round(4).tolist(), "peak_isometric_torque": peaks}
+
+
+def _sign_targets(view, refs, arms) -> list[dict]:
+    out = []
+    for m, role in SIGN_MUSCLES.items():
+        for coord in ("shoulder_rot", "elv_angle"):
+            parent = float(refs.curve("mobl_arms", m, coord, view.task_plane, "coupled", ELEVATIONS).mean())
+            mine, note = model_curve(view, arms, m, coord, view.task_plane, "coupled")
+            text = (f"{m} {references.DOF_LABELS[coord]} moment arm with the parent's sign"
+                    + (f" ({role})" if coord == "shoulder_rot" else ""))
+            bound = f"sign of the parent's mean, {parent:+.1f} mm"
+            if mine is None:
+                out.append(target(f"sign/{m}/{coord}", text, False, "-", bound, view.missing))
+            else:
+                out.append(target(f"sign/{m}/{coord}", text, np.sign(np.mean(mine)) == np.sign(parent),
+                                  f"mean {np.mean(mine):+.1f} mm", bound, note))
+    return out
+
+
+def _shown(path) -> str:
+    """The model path as the user knows it: models/<file> for the packaged model, else as given."""
+    path = Path(path)
+    return f"models/{path.name}" if path.resolve().parent == MODELS_DIR.resolve() else str(path)
+
+
+def evaluate(muscle_model: str = DEFAULT_MUSCLE_MODEL, path: Path | str = MODEL_PATH) -> dict:
+    """Every quantity and target, as one JSON-ready dict; `passed` is True only if every target passed."""
+    from shoulder_bench.muscle import ForceLaw
+
+    view = inspect_model(path)
+    refs = references.load()
+    arms, fine = model_moment_arms(ELEVATIONS, path), model_moment_arms(FINE, path)
+    law = ForceLaw.load(muscle_model)
+    cond = f"{PLANE_NAMES.get(view.task_plane, view.task_plane)} plane, rotation 0, girdle coupled, 0-120 deg"
+    forces, quantities = _force_targets(view, refs, law, cond)
+    targets = _moment_arm_targets(view, refs, arms, fine, cond) + forces + _sign_targets(view, refs, arms)
+    cap = isometric_torque(law, [0.0, 5.0, 10.0])
+    i_s, i_d = law.muscles.index("ssp"), law.muscles.index("dmi")
+    return {
+        "model": {"path": _shown(path), "version": anatomy.MODEL_VERSION, "muscle_model": muscle_model,
+                  "description": view.describe(), "girdle": view.girdle, "task_plane_deg": view.task_plane,
+                  "coordinates": list(view.coordinates), "planes_deg": list(view.planes)},
+        "follows": {m: {"reference": r, "reason": why} for m, (r, why) in references.FOLLOWS.items()},
+        "envelope_excluded": references.ENVELOPE_EXCLUDED,
+        "moment_arms": moment_arm_section(view, refs, arms),
+        **quantities,
+        "capacity_ratio_ssp_dmi": {f"{a:g}": float(cap[j, i_s] / cap[j, i_d]) for j, a in enumerate((0, 5, 10))},
+        "ssp_static_reach_deg": static_reach(ForceLaw.load(muscle_model, muscles=("ssp",))),
+        "humerus_mass_kg": anatomy.HUMERUS_MASS,
+        "targets": targets,
+        "passed": all(t["passed"] for t in targets),
+    }
+
+
+def _run(args) -> int:
+    from shoulder_bench.fem import output_folder
+
+    out = output_folder(args.out, "--out")
+    from shoulder_bench.validate_report import print_report, write_figures
+
+    report = evaluate(args.muscle_model)
+    report["figures"] = [str(p) for p in write_figures(report, out)]
+    if args.json:
+        print(json.dumps(report, indent=1, allow_nan=False))
+    else:
+        print_report(report)
+    return 0 if report["passed"] else 1
+
+
+def add_parser(subparsers):
+    from shoulder_bench.muscle import MUSCLE_MODELS
+
+    p = subparsers.add_parser("model", help="check the shoulder model")
+    sub = p.add_subparsers(dest="model_command", required=True, metavar="SUBCOMMAND")
+    v = sub.add_parser("validate", help="moment arms against the MoBL-ARMS, MyoArm and OpenSim references, rest "
+                       "posture, passive and peak torques; overlay figures; exit status 1 when a target is missed")
+    v.add_argument("--json", action="store_true", help="print one JSON object instead of the tables")
+    v.add_argument("--out", type=Path, default=Path("."), help="folder for the figures validate_<muscle>.png "
+                   "(default: the current folder; created if missing)")
+    v.add_argument("--muscle-model", choices=MUSCLE_MODELS, default=DEFAULT_MUSCLE_MODEL,
+                   help="muscle tables for the force quantities (default: %(default)s)")
+    v.set_defaults(func=_run)
+    return p
