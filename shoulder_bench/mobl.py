@@ -1,0 +1,202 @@
+"""Writes the v2 shoulder model, `models/shoulder_v2.xml`, from MoBL-ARMS data (MyoArm's MuJoCo conversion).
+
+`python -m shoulder_bench.mobl` regenerates the file; tests/test_mobl.py checks the shipped file is up to date and
+validates its kinematics against MyoArm's moment-arm table, which nothing here is fitted to. See docs/model_v2.md.
+
+What comes from where (all read by `shoulder_bench.mobl_data` from `models/reference/`):
+
+- bodies thorax -> clavicle -> clavphant -> scapula -> scapphant -> humphant -> humphant1 -> humerus with MyoArm's
+  frames (`muscle_parameters.csv`, `body_frame` rows), EXCEPT the clavicle, which sits at MoBL's SC joint location
+  (6.325, 6.93, 25.465) mm in the thorax frame (the `mobl_opensim` clavicle row). MyoArm puts it at (25.5, 6.9, -6.3)
+  mm (reference README section 6.2: its girdle is 37 mm off its thorax attachments); the thorax sites keep MoBL's
+  thorax coordinates, so moving the clavicle back is what makes them consistent with the girdle. MyoArm's clavicle
+  frame is parallel to its thorax frame, so the clavicle gets no rotation;
+- hinges with MyoArm's axes, order and ranges, named as MoBL's coordinates (`coordinate_definitions.csv`);
+- joint equality constraints with MyoArm's polycoef (`girdle_coupling.csv`): the girdle rhythm driven by
+  shoulder_elv, and shoulder1_r2 = -elv_angle;
+- sites, wrap geoms (MyoArm's spheres and cylinders; its spheres are its stand-ins for MoBL's ellipsoids) and side
+  sites of SUPSP, INFSP, DELT2, LAT1-3 as spatial tendons ssp, isp, dmi, ld1, ld2, ld3;
+- the humerus inertial (`humerus_inertia.csv`). The girdle and phantom bodies get a 0.1 g placeholder (MuJoCo needs
+  mass on moving bodies; MoBL's girdle masses are not in the reference data);
+- visual geoms only: MoBL's `Thorax` wrap ellipsoid as the rib cage, a capsule clavicle from the SC to the AC joint,
+  a flat ellipsoid scapula through the glenoid (GH centre), the SUPSP origin and the LAT3 scapular point, and a
+  capsule humerus from the GH centre to twice its COM.
+
+World frame: the thorax frame (x anterior, y superior, z lateral) rotated +90 deg about x, so world x is anterior,
+z superior and y points to the subject's left (the right arm is on -y). No actuators in this step, no contact (no
+geom has a contype), RK4 at v1's timestep.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+
+from shoulder_bench import mobl_data as D
+from shoulder_bench.mjcf import MUSCLE_RGBA, PHYSICS_TIMESTEP
+
+FILENAME = "shoulder_v2.xml"
+THORAX_QUAT = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)  # thorax y (superior) -> world z
+# Placeholder inertial of the girdle and phantom bodies: MuJoCo refuses massless moving bodies, and the reference
+# data has no girdle masses. Not anatomy; 0.1 g puts no measurable load on the slaved joints.
+PLACEHOLDER_INERTIAL = '<inertial pos="0 0 0" mass="0.0001" diaginertia="1e-08 1e-08 1e-08"/>'
+TENDON_RGBA = {t: MUSCLE_RGBA[t[:2] if t.startswith("ld") else t] for t in D.MUSCLES}
+
+
+def _n(x: float) -> str:
+    """A data value, as written in the CSV (at most 10 significant digits)."""
+    s = f"{x:.10g}"
+    return "0" if s == "-0" else s
+
+
+def _c(x: float) -> str:
+    """A computed (visual) value, fixed precision so the file does not depend on the CPU's last bits."""
+    s = f"{x:.5f}".rstrip("0").rstrip(".")
+    return "0" if s in ("-0", "") else s
+
+
+def _v(p, f=_n) -> str:
+    return " ".join(f(float(x)) for x in p)
+
+
+def _euler_xyz_quat(a: tuple) -> tuple:
+    """OpenSim body-fixed XYZ rotation (rad) as a quaternion w x y z: q = qx(a0) qy(a1) qz(a2)."""
+    q = np.array([1.0, 0.0, 0.0, 0.0])
+    for k, ang in enumerate(a):
+        r = np.zeros(4)
+        r[0], r[k + 1] = math.cos(ang / 2), math.sin(ang / 2)
+        w1, v1, w2, v2 = q[0], q[1:], r[0], r[1:]
+        q = np.concatenate([[w1 * w2 - v1 @ v2], w1 * v2 + w2 * v1 + np.cross(v1, v2)])
+    return tuple(q)
+
+
+def _mat_quat(R: np.ndarray) -> tuple:
+    """Rotation matrix (columns = the body axes) to a quaternion w x y z (R has a positive trace here)."""
+    w = math.sqrt(max(0.0, 1.0 + R[0, 0] + R[1, 1] + R[2, 2])) / 2
+    return (w, (R[2, 1] - R[1, 2]) / (4 * w), (R[0, 2] - R[2, 0]) / (4 * w), (R[1, 0] - R[0, 1]) / (4 * w))
+
+
+def _scapula_visual(frames: dict, paths: dict) -> str:
+    """A flat ellipsoid in the blade's plane through the glenoid, the SUPSP origin and LAT3's scapular point."""
+    g = np.array(frames["scapphant"].pos)  # the GH centre (glenoid) in the scapula frame
+    s = np.array(next(i.pos for i in reversed(paths["ssp"]) if isinstance(i, D.Site)))  # supraspinous fossa
+    i3 = np.array(next(i.pos for i in paths["ld3"] if isinstance(i, D.Site) and i.body == "scapula"))  # inf. angle
+    c = (g + s + i3) / 3
+    e1 = (s - i3) / np.linalg.norm(s - i3)
+    n = np.cross(s - g, i3 - g)
+    e3 = n / np.linalg.norm(n)
+    e2 = np.cross(e3, e1)
+    R = np.column_stack([e1, e2, e3])
+    if np.trace(R) < 0:  # keep the quaternion formula well conditioned: flip two axes (same ellipsoid)
+        R[:, 1:] *= -1
+    pts = np.stack([g, s, i3]) - c
+    half = np.abs(pts @ R).max(axis=0)
+    size = (half[0] + 0.01, half[1] + 0.01, 0.004)
+    return (f'<geom name="scapula" type="ellipsoid" class="bone" pos="{_v(c, _c)}" '
+            f'quat="{_v(_mat_quat(R), _c)}" size="{_v(size, _c)}"/>')
+
+
+def model_xml(clavicle: str = "mobl", folder: Path | None = None) -> str:
+    """The v2 MJCF. `clavicle="myoarm"` puts the clavicle where MyoArm has it (for the reconstruction test only)."""
+    frames, joints, paths = D.body_frames(folder), D.joints(folder), D.muscle_paths(folder)
+    D.check_clavicle_parallel(folder)
+    if clavicle not in ("mobl", "myoarm"):
+        raise ValueError(f"clavicle must be 'mobl' or 'myoarm', not {clavicle!r}")
+    sc = D.mobl_sc_location(folder) if clavicle == "mobl" else D.myoarm_sc_location(folder)
+    inner = {b: [] for b in D.CHAIN}
+    for j in joints:
+        inner[j.body].append(f'<joint name="{j.name}" axis="{_v(j.axis)}" range="{_v(j.range_deg)}"/>')
+    for b in D.CHAIN[1:-1]:
+        inner[b].append(PLACEHOLDER_INERTIAL)
+    hum = D.humerus_inertial(folder)
+    inner["humerus"].append(f'<inertial pos="{_v(hum.com)}" mass="{_n(hum.mass)}" fullinertia="{_v(hum.full)}"/>')
+    tpos, trot, tsize = D.thorax_ellipsoid(folder)
+    inner["thorax"].append(f'<geom name="thorax" type="ellipsoid" class="bone" pos="{_v(tpos)}" '
+                           f'quat="{_v(_euler_xyz_quat(trot), _c)}" size="{_v(tsize)}"/>')
+    inner["clavicle"].append(f'<geom name="clavicle" type="capsule" class="bone" size="0.006" '
+                             f'fromto="0 0 0 {_v(frames["clavphant"].pos)}"/>')
+    inner["scapula"].append(_scapula_visual(frames, paths))
+    inner["humerus"].append(f'<geom name="humerus" type="capsule" class="bone" size="0.012" '
+                            f'fromto="0 0 0 {_v([2 * x for x in hum.com], _c)}"/>')
+    seen, tendons = {}, []
+    for tendon, items in paths.items():
+        route = []
+        for it in items:
+            if isinstance(it, D.Site):
+                _place(seen, inner, it, f'<site name="{it.name}" pos="{_v(it.pos)}" class="muscle_site"/>')
+                route.append(f'<site site="{it.name}"/>')
+                continue
+            size = _v(it.size)
+            _place(seen, inner, it, f'<geom name="{it.name}" type="{it.kind}" class="wrap" pos="{_v(it.pos)}" '
+                                    f'quat="{_v(it.quat)}" size="{size}"/>')
+            side = ""
+            if it.side is not None:
+                _place(seen, inner, it.side, f'<site name="{it.side.name}" pos="{_v(it.side.pos)}" class="side_site"/>')
+                side = f' sidesite="{it.side.name}"'
+            route.append(f'<geom geom="{it.name}"{side}/>')
+        tendons.append(f'<spatial name="{tendon}" width="0.003" rgba="{TENDON_RGBA[tendon]}">'
+                       + "".join(route) + "</spatial>")
+    eqs = [f'<joint name="{c.name}" joint1="{c.dependent}" joint2="{c.driver}" polycoef="{_v(c.polycoef)}"/>'
+           for c in D.couplings(folder)]
+    body_attr = {b: f'pos="{_v(frames[b].pos)}" quat="{_v(frames[b].quat)}"' for b in D.CHAIN[2:]}
+    body_attr["thorax"] = f'pos="0 0 0" quat="{_v(THORAX_QUAT)}"'
+    body_attr["clavicle"] = f'pos="{_v(sc)}" quat="1 0 0 0"'
+    body = ""
+    for depth, b in reversed(list(enumerate(D.CHAIN))):
+        pad = "  " * (depth + 2)
+        lines = "".join(f"{pad}  {x}\n" for x in inner[b])
+        body = f'{pad}<body name="{b}" {body_attr[b]}>\n{lines}{body}{pad}</body>\n'
+    where = "MoBL's SC location" if clavicle == "mobl" else "MyoArm's clavicle location (test variant)"
+    nl = "\n    "
+    return f"""<mujoco model="shoulder_v2">
+  <!-- Generated by shoulder_bench/mobl.py from models/reference/*.csv (MyoArm's MoBL-ARMS geometry; clavicle at
+       {where}); edit those, not this file. docs/model_v2.md -->
+  <compiler angle="degree" autolimits="true" inertiafromgeom="false"/>
+  <option timestep="{PHYSICS_TIMESTEP}" integrator="RK4" gravity="0 0 -9.81"><flag contact="disable"/></option>
+  <visual><global offwidth="1280" offheight="960"/></visual>
+  <default>
+    <geom contype="0" conaffinity="0" group="1"/>
+    <default class="bone"><geom rgba="0.89 0.85 0.76 1"/></default>
+    <default class="wrap"><geom rgba="0.75 0.80 0.85 0.35" group="2"/></default>
+    <default class="muscle_site"><site size="0.004" rgba="0.9 0.2 0.2 1" group="3"/></default>
+    <default class="side_site"><site size="0.003" rgba="0.2 0.9 0.2 1" group="4"/></default>
+  </default>
+  <worldbody>
+{body}  </worldbody>
+  <equality>
+    {nl.join(eqs)}
+  </equality>
+  <tendon>
+    {nl.join(tendons)}
+  </tendon>
+</mujoco>
+"""
+
+
+def _place(seen: dict, inner: dict, item, xml: str) -> None:
+    """Add a site/geom to its body once; an item shared by several paths must be the same in every row."""
+    if isinstance(item, D.Wrap):
+        item = dataclasses.replace(item, side=None)  # the side site belongs to the path, not to the geom
+    if item.name in seen:
+        if seen[item.name] != item:
+            raise ValueError(f"{item.name} differs between the muscles that use it: {seen[item.name]} vs {item}")
+        return
+    if item.body not in inner:
+        raise ValueError(f"{item.name} is on body {item.body!r}, not in the modelled chain {D.CHAIN}")
+    seen[item.name] = item
+    inner[item.body].append(xml)
+
+
+def write_model(models_dir: Path | None = None) -> Path:
+    """Write `shoulder_v2.xml` into `models_dir` (default: the package's models folder)."""
+    from shoulder_bench.model import MODELS_DIR
+
+    path = Path(models_dir or MODELS_DIR) / FILENAME
+    path.write_text(model_xml())
+    return path
+
+
+if __name__ == "__main__":
+    print(write_model())

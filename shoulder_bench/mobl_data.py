@@ -1,0 +1,216 @@
+"""Reads the MoBL-ARMS shoulder (MyoArm's MuJoCo conversion) from the reference CSVs, for the v2 model.
+
+The files are the package's copies in `models/reference/` of ../shared/reference/moment_arms (identical bytes; the
+shared README documents how they were extracted from MyoHub/myo_sim @ 2cef885 and the OpenSim files):
+
+- `muscle_parameters.csv`: `body_frame` rows (each body's pose in its parent), `path_point` rows (MuJoCo sites) and
+  `wrap` rows (MuJoCo spheres/cylinders with their side sites) of model `myoarm`; the `mobl_opensim` clavicle
+  `body_frame` row gives MoBL's sternoclavicular (SC) joint location in the thorax frame;
+- `coordinate_definitions.csv`: hinge axes (in the child body's frame), order and ranges of the `myoarm` coordinates;
+- `girdle_coupling.csv`: the `myoarm` joint-equality polynomials (dependent = c0 + c1 x + ... + c4 x^4, x = driver);
+- `humerus_inertia.csv`: the `myoarm` humerus mass, COM and inertia tensor (MyoArm = the MoBL-ARMS parent's).
+
+Only the standard library is used (csv; gzip for a `.gz` file), plus a rotation for the MyoArm clavicle variant.
+"""
+from __future__ import annotations
+
+import csv
+import gzip
+import io
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from shoulder_bench.model import MODELS_DIR
+
+REFERENCE_DIR = MODELS_DIR / "reference"
+SOURCE = "myoarm"  # MyoArm's rows (MoBL-ARMS converted to MuJoCo; its spheres/cylinders stand in for ellipsoids)
+CHAIN = ("thorax", "clavicle", "clavphant", "scapula", "scapphant", "humphant", "humphant1", "humerus")
+# our tendon -> MyoArm muscle. LAT1-3 stay three bundles (ld1-3): each has its own thorax origin and scapular via
+# point and wraps differently (LAT2's second wrap has no side site), so one line cannot reproduce them.
+MUSCLES = {"ssp": "SUPSP", "isp": "INFSP", "dmi": "DELT2", "ld1": "LAT1", "ld2": "LAT2", "ld3": "LAT3"}
+
+
+@dataclass(frozen=True)
+class Body:
+    name: str
+    parent: str
+    pos: tuple
+    quat: tuple  # w x y z, in the parent frame
+
+
+@dataclass(frozen=True)
+class Joint:
+    name: str
+    body: str
+    axis: tuple  # in the body's frame
+    range_deg: tuple
+
+
+@dataclass(frozen=True)
+class Coupling:
+    name: str
+    dependent: str
+    driver: str
+    polycoef: tuple  # c0..c4, radians
+
+
+@dataclass(frozen=True)
+class Site:
+    name: str
+    body: str
+    pos: tuple
+
+
+@dataclass(frozen=True)
+class Wrap:
+    name: str
+    body: str
+    kind: str  # sphere | cylinder
+    pos: tuple
+    quat: tuple
+    size: tuple  # sphere: (radius,); cylinder: (radius, half-length)
+    side: Site | None
+
+
+@dataclass(frozen=True)
+class Inertial:
+    mass: float
+    com: tuple
+    full: tuple  # Ixx Iyy Izz Ixy Ixz Iyz about the COM, kg m^2, humerus frame
+
+
+def _rows(name: str, folder: Path | None = None) -> list[dict]:
+    path = Path(folder or REFERENCE_DIR) / name
+    if not path.exists() and path.with_name(name + ".gz").exists():
+        path = path.with_name(name + ".gz")
+    if not path.exists():
+        raise FileNotFoundError(f"reference file {path} is missing (models/reference/, copied from "
+                                f"../shared/reference/moment_arms)")
+    raw = path.read_bytes()
+    if path.suffix == ".gz":
+        raw = gzip.decompress(raw)
+    return list(csv.DictReader(io.StringIO(raw.decode("utf-8"))))
+
+
+def _vec(row: dict, *keys: str) -> tuple:
+    return tuple(float(row[k]) for k in keys)
+
+
+def body_frames(folder: Path | None = None) -> dict[str, Body]:
+    """MyoArm's body frames of the shoulder chain (`body_frame` rows of muscle_parameters.csv)."""
+    out = {}
+    for r in _rows("muscle_parameters.csv", folder):
+        if r["model"] == SOURCE and r["record"] == "body_frame" and r["name"] in CHAIN:
+            if r["orient_convention"] != "quat_wxyz":
+                raise ValueError(f"body {r['name']}: orientation {r['orient_convention']!r}, expected quat_wxyz")
+            out[r["name"]] = Body(r["name"], r["body"], _vec(r, "x_m", "y_m", "z_m"), _vec(r, "o1", "o2", "o3", "o4"))
+    missing = set(CHAIN) - set(out)
+    if missing:
+        raise ValueError(f"muscle_parameters.csv has no {SOURCE} body_frame row for {sorted(missing)}")
+    return out
+
+
+def mobl_sc_location(folder: Path | None = None) -> tuple:
+    """MoBL's SC joint in the thorax frame: the `mobl_opensim` clavicle `body_frame` row (no rotation)."""
+    for r in _rows("muscle_parameters.csv", folder):
+        if r["model"] == "mobl_opensim" and r["record"] == "body_frame" and r["name"] == "clavicle":
+            if r["body"] != "thorax" or any(float(r[k]) != 0.0 for k in ("o1", "o2", "o3")):
+                raise ValueError(f"the mobl_opensim clavicle frame is not a pure offset in the thorax: {r}")
+            return _vec(r, "x_m", "y_m", "z_m")
+    raise ValueError("muscle_parameters.csv has no mobl_opensim clavicle body_frame row")
+
+
+def _quat_conj_rotate(q: tuple, v: tuple) -> tuple:
+    """R(q)^T v for a unit quaternion q = (w, x, y, z)."""
+    w, x, y, z = q
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    w, x, y, z = w / n, -x / n, -y / n, -z / n
+    # v' = q v q*, written out
+    tx, ty, tz = 2 * (y * v[2] - z * v[1]), 2 * (z * v[0] - x * v[2]), 2 * (x * v[1] - y * v[0])
+    return (v[0] + w * tx + y * tz - z * ty, v[1] + w * ty + z * tx - x * tz, v[2] + w * tz + x * ty - y * tx)
+
+
+def myoarm_sc_location(folder: Path | None = None) -> tuple:
+    """MyoArm's clavicle position expressed in its thorax frame, (25.5, 6.9, -6.3) mm (README section 6.2).
+
+    In MyoArm the clavicle and the thorax are siblings in `full_body` with the same orientation; this is only for
+    reproducing MyoArm exactly (the reconstruction test), not the shipped model."""
+    b = body_frames(folder)
+    th, cl = b["thorax"], b["clavicle"]
+    d = tuple(c - t for c, t in zip(cl.pos, th.pos))
+    return _quat_conj_rotate(th.quat, d)
+
+
+def check_clavicle_parallel(folder: Path | None = None, tol: float = 1e-7) -> None:
+    """The clavicle frame is parallel to the thorax frame in MyoArm (same quat in full_body); we rely on it."""
+    b = body_frames(folder)
+    if any(abs(a - c) > tol for a, c in zip(b["thorax"].quat, b["clavicle"].quat)):
+        raise ValueError("MyoArm's clavicle frame is not parallel to its thorax frame")
+
+
+def joints(folder: Path | None = None) -> list[Joint]:
+    """MyoArm's shoulder-chain hinges in file order (= MuJoCo's order of application within a body)."""
+    out = []
+    for r in _rows("coordinate_definitions.csv", folder):
+        if r["model"] == SOURCE and r["body"] in CHAIN:
+            axis = tuple(float(x) for x in r["axis_in_parent_offset_frame"].split())
+            out.append(Joint(r["coordinate"], r["body"], axis,
+                             (float(r["range_min_deg"]), float(r["range_max_deg"]))))
+    return out
+
+
+def couplings(folder: Path | None = None) -> list[Coupling]:
+    """MyoArm's joint equality constraints (girdle rhythm and shoulder1_r2 = -elv_angle)."""
+    out = []
+    for r in _rows("girdle_coupling.csv", folder):
+        if r["model"] == SOURCE:
+            out.append(Coupling(r["constraint"], r["dependent_coordinate"], r["driver_coordinate"],
+                                _vec(r, "c0", "c1", "c2", "c3", "c4")))
+    return out
+
+
+def humerus_inertial(folder: Path | None = None) -> Inertial:
+    for r in _rows("humerus_inertia.csv", folder):
+        if r["model"] == SOURCE and r["body"] == "humerus":
+            return Inertial(float(r["mass_kg"]), _vec(r, "com_x_m", "com_y_m", "com_z_m"),
+                            _vec(r, "Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz"))
+    raise ValueError("humerus_inertia.csv has no myoarm humerus row")
+
+
+def muscle_paths(folder: Path | None = None) -> dict[str, list]:
+    """Each of our tendons' path: Site and Wrap items in MyoArm's path order (`seq`)."""
+    rows = [r for r in _rows("muscle_parameters.csv", folder) if r["model"] == SOURCE]
+    out = {}
+    for ours, theirs in MUSCLES.items():
+        items = []
+        for r in sorted((r for r in rows if r["muscle"] == theirs and r["record"] in ("path_point", "wrap")),
+                        key=lambda r: int(r["seq"])):
+            pos = _vec(r, "x_m", "y_m", "z_m")
+            if r["record"] == "path_point":
+                items.append(Site(r["name"], r["body"], pos))
+                continue
+            if r["wrap_type"] not in ("sphere", "cylinder") or r["orient_convention"] != "quat_wxyz":
+                raise ValueError(f"{theirs} wrap {r['name']}: {r['wrap_type']} / {r['orient_convention']}")
+            size = (float(r["size1_m"]),) if r["wrap_type"] == "sphere" else _vec(r, "size1_m", "size2_m")
+            side = None
+            if r["side_spec"].startswith("sidesite:"):
+                side = Site(r["side_spec"].split(":", 1)[1], r["side_body"],
+                            _vec(r, "side_x_m", "side_y_m", "side_z_m"))
+            elif r["side_spec"] != "none":
+                raise ValueError(f"{theirs} wrap {r['name']}: side {r['side_spec']!r}")
+            items.append(Wrap(r["name"], r["body"], r["wrap_type"], pos, _vec(r, "o1", "o2", "o3", "o4"), size, side))
+        if not items or not isinstance(items[0], Site) or not isinstance(items[-1], Site):
+            raise ValueError(f"{theirs}: a path must start and end at a site")
+        out[ours] = items
+    return out
+
+
+def thorax_ellipsoid(folder: Path | None = None) -> tuple[tuple, tuple, tuple]:
+    """MoBL's `Thorax` wrap ellipsoid (an unused `body_wrap_object` of the OpenSim file): position and semi-axes in
+    the thorax frame, OpenSim body-fixed XYZ rotation (rad). The v2 model draws it as the rib cage (visual only)."""
+    for r in _rows("muscle_parameters.csv", folder):
+        if r["model"] == "mobl_opensim" and r["record"] == "body_wrap_object" and r["name"] == "Thorax":
+            return (_vec(r, "x_m", "y_m", "z_m"), _vec(r, "o1", "o2", "o3"),
+                    _vec(r, "size1_m", "size2_m", "size3_m"))
+    raise ValueError("muscle_parameters.csv has no mobl_opensim Thorax body_wrap_object row")
