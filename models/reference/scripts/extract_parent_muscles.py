@@ -1,0 +1,84 @@
+"""Extract the shoulder muscles' parameters from a local copy of the MoBL-ARMS parent file (MoBL_ARMS_J.osim).
+
+Usage (from the repository root; the .osim is not part of this repository):
+
+    C=610b95cf0c4484f1acecd31187736b0113dcfb73   # stanfordnmbl/osim-rl
+    git --git-dir=<osim-rl clone>/.git show $C:osim/models/MoBL_ARMS_J.osim > /tmp/MoBL_ARMS_J.osim
+    md5sum /tmp/MoBL_ARMS_J.osim   # d6b9866c4f721f481e7d9e0bdae51093
+    python models/reference/scripts/extract_parent_muscles.py /tmp/MoBL_ARMS_J.osim \
+        --out models/reference/mobl_arms_parent_muscles.csv
+
+Standard library only (xml.etree). Each value is written exactly as the file spells it (no float reformatting).
+The muscle class is the XML element's tag (e.g. Schutte1993Muscle_Deprecated). A muscle element that lacks one of
+the four properties is an error (the file's <defaults> hold no Schutte1993 muscle to inherit from), as is a muscle
+that appears twice or not at all.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import hashlib
+import sys
+import xml.etree.ElementTree as ET
+
+MUSCLES = ("SUPSP", "INFSP", "DELT1", "DELT2", "DELT3", "SUBSC", "TMIN", "TMAJ",
+           "PECM1", "PECM2", "PECM3", "LAT1", "LAT2", "LAT3", "CORB")
+PROPERTIES = (("max_isometric_force", "max_isometric_force_N"),
+              ("optimal_fiber_length", "optimal_fiber_length_m"),
+              ("tendon_slack_length", "tendon_slack_length_m"),
+              ("pennation_angle_at_optimal", "pennation_angle_rad"))
+COLUMNS = ("muscle",) + tuple(c for _, c in PROPERTIES) + ("class",)
+
+
+def extract(path: str) -> list[dict]:
+    root = ET.parse(path).getroot()
+    force_sets = root.findall("./Model/ForceSet/objects")
+    if len(force_sets) != 1:
+        raise SystemExit(f"{path}: expected one Model/ForceSet/objects, found {len(force_sets)}")
+    found: dict[str, ET.Element] = {}
+    for el in force_sets[0]:
+        name = el.get("name")
+        if name in MUSCLES:
+            if name in found:
+                raise SystemExit(f"{path}: muscle {name} appears twice")
+            found[name] = el
+    missing = [m for m in MUSCLES if m not in found]
+    if missing:
+        raise SystemExit(f"{path}: muscles not found: {missing}")
+    rows = []
+    for m in MUSCLES:
+        el = found[m]
+        row = {"muscle": m, "class": el.tag}
+        for prop, col in PROPERTIES:
+            child = el.find(prop)  # direct child only: nested curves have their own elements
+            if child is None or child.text is None:
+                raise SystemExit(f"{path}: {m} has no <{prop}>")
+            text = child.text.strip()
+            float(text)  # must parse as a number
+            row[col] = text
+        rows.append(row)
+    return rows
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("osim", help="local copy of MoBL_ARMS_J.osim")
+    ap.add_argument("--out", help="CSV to write (default: stdout)")
+    args = ap.parse_args(argv)
+    with open(args.osim, "rb") as f:
+        md5 = hashlib.md5(f.read()).hexdigest()
+    rows = extract(args.osim)
+    out = open(args.out, "w", newline="") if args.out else sys.stdout
+    try:
+        w = csv.DictWriter(out, fieldnames=COLUMNS, lineterminator="\n")
+        w.writeheader()
+        w.writerows(rows)
+    finally:
+        if args.out:
+            out.close()
+    print(f"{args.osim}: md5 {md5}, {len(rows)} muscles", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
