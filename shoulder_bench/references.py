@@ -46,6 +46,13 @@ MUSCLE_MAP = {
     "ld": {"mobl_arms": ("LAT1", "LAT2", "LAT3"), "myoarm": ("LAT1", "LAT2", "LAT3"), "mobl_opensim": ("LAT",)},
 }
 
+# The v2 model's tendons (models/shoulder_v2.xml) per muscle of ours, each with the parent's bundle it reconstructs.
+# v2 has no forces yet, so ld's three bundles are combined as the references' LAT1-3 are, weighted by the parent's F0
+# (mobl_arms_parent_f0.csv, the F0s anatomy.F0 uses): `ReferenceTables.v2_weights`.
+V2_TENDONS = {"ssp": {"ssp": "SUPSP"}, "isp": {"isp": "INFSP"}, "dmi": {"dmi": "DELT2"},
+              "ld": {"ld1": "LAT1", "ld2": "LAT2", "ld3": "LAT3"}}
+V2_F0_FROM = "mobl_arms"
+
 # The reference each muscle follows (the peak-torque target uses its peak moment arm), from the findings of the
 # reference README (models/reference/README.md, sections 6.1-6.4), not from which one our model is closest to.
 FOLLOWS = {
@@ -110,6 +117,13 @@ class ReferenceTables:
             return arms[0]
         w = np.array([self.f0[(model, b)] for b in bundles])
         return w @ arms / w.sum()
+
+    def v2_weights(self, muscle: str) -> dict[str, float]:
+        """{v2 tendon: weight} that make our muscle from the v2 model's tendons: the parent's F0 of the bundle each
+        tendon reconstructs, normalised (ld: LAT1-3 290.5 / 317.5 / 189 N); 1 for a single tendon."""
+        f0 = {t: self.f0[(V2_F0_FROM, b)] for t, b in V2_TENDONS[muscle].items()}
+        total = sum(f0.values())
+        return {t: f / total for t, f in f0.items()}
 
     def peak(self, model: str, muscle: str, coordinate: str, plane: int, girdle: str, elevations,
              rotation: int = 0) -> tuple[float, float]:
