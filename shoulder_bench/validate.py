@@ -1,5 +1,9 @@
-"""`shoulder-bench model validate [--json] [--out DIR]`: the model against the reference moment arms and the
-literature targets of the model-v2 issue (docs/validation.md); exit status 1 when any target is missed.
+"""`shoulder-bench model validate [--model PATH] [--json] [--out DIR]`: the model against the reference moment arms
+and the literature targets of the model-v2 issue (docs/validation.md); exit status 1 when any target is missed.
+
+The default model is v1 (models/shoulder.xml, the tasks' model). `--model models/shoulder_v2.xml` validates the v2
+kinematic model's geometry instead (shoulder_bench.validate_v2): every moment-arm target in both candidate task
+planes, its force targets "not yet".
 
 Moment arms come from MuJoCo (the tendon Jacobian, `model.tendon_geometry`; r = -dL/dq, + elevates, as in the
 references); rest posture, passive torque, peak isometric torques, capacity and reach from the tabled force law.
@@ -32,6 +36,23 @@ PEAK_TORQUE_TOL = 0.30
 SIGN_MUSCLES = {"isp": "an external rotator", "ld": "an internal rotator"}
 TOL = 1e-9  # float slack on the bounds
 NOT_MODELLED = "not modelled (v1: 1-DOF coronal hinge, fixed girdle)"
+# The plane of elevation (deg) of the tasks for the v2 model: None = not chosen yet, so every target in the tasks'
+# plane fails with NO_TASK_PLANE while both candidates (0 coronal, 30 scapular) are still evaluated and shown. To be
+# chosen on anatomical/protocol grounds, not on which plane passes.
+TASK_PLANE_V2 = None
+NO_TASK_PLANE = "tasks' plane not chosen yet"
+V2_JOINTS = ("elv_angle", "shoulder_elv", "shoulder_rot")
+V2_TENDONS = tuple(t for tendons in references.V2_TENDONS.values() for t in tendons)
+REST_TEXT = "the relaxed arm rests near hanging (activations 0: passive torque + gravity)"
+REST_BOUND = f"within {REST_MAX_DEG:g} deg of 0 deg"
+PASSIVE_TEXT = f"net passive muscle torque small over 0-{PASSIVE_MAX_DEG:g} deg"
+PASSIVE_BOUND = f"|torque| < {PASSIVE_MAX_NM:g} N m"
+PEAK_BOUND = f"ratio {1 - PEAK_TORQUE_TOL:.2f}-{1 + PEAK_TORQUE_TOL:.2f}"
+
+
+def peak_text(m: str, ref: str, cond: str) -> str:
+    return (f"{m} peak isometric torque within +-{PEAK_TORQUE_TOL:.0%} of F0 x the peak moment arm of "
+            f"{references.SHORT[ref]} ({cond})")
 PLANE_NAMES = {v: k for k, v in references.PLANES.items()}
 
 
@@ -41,10 +62,16 @@ class ModelView:
     coordinates: tuple
     planes: tuple
     girdle: str
-    task_plane: int
+    task_plane: int | None
     missing: str  # the reason given for what it cannot pose
+    version: str = "1"
 
     def describe(self) -> str:
+        if self.version == "2":
+            tp = NO_TASK_PLANE if self.task_plane is None else f"tasks in plane {self.task_plane}"
+            return ("DOFs elevation, rotation, plane (shoulder_elv, shoulder_rot, elv_angle; girdle joints slaved by "
+                    "polycoef equalities); posed in the coronal (0 deg) and scapular (30 deg) planes; girdle coupled "
+                    f"and fixed; {tp} (validate.TASK_PLANE_V2 = {self.task_plane})")
         planes = ", ".join(f"{PLANE_NAMES.get(p, p)} ({p} deg)" for p in self.planes)
         dofs = ", ".join(references.DOF_LABELS[c] for c in self.coordinates)
         return f"DOFs {dofs}; elevates in the {planes} plane; girdle {self.girdle}; tasks in plane {self.task_plane}"
@@ -55,8 +82,17 @@ def inspect_model(path: Path | str = MODEL_PATH) -> ModelView:
     joints = [m.joint(j).name for j in range(m.njnt)]
     if joints == [JOINT] and np.allclose(m.jnt_axis[0], (1.0, 0.0, 0.0)):  # v1: abduction about +x (anterior)
         return ModelView(("shoulder_elv",), (0,), "fixed", 0, NOT_MODELLED)
-    raise ValueError(f"{path}: validate knows the v1 model (one '{JOINT}' hinge about +x); this model has joints "
-                     f"{joints}: teach shoulder_bench.validate.inspect_model its coordinates, planes and girdle")
+    tendons = [m.tendon(t).name for t in range(m.ntendon)]
+    if set(V2_JOINTS) <= set(joints) and set(V2_TENDONS) <= set(tendons) and m.neq:  # v2: the MoBL chain
+        if TASK_PLANE_V2 not in (None, *references.PLANES.values()):
+            raise ValueError(f"validate.TASK_PLANE_V2 = {TASK_PLANE_V2!r}: None (not chosen) or one of "
+                             f"{sorted(references.PLANES.values())}")
+        return ModelView(references.COORDINATES, tuple(references.PLANES.values()), "coupled and fixed",
+                         TASK_PLANE_V2, "", version="2")
+    raise ValueError(f"{path}: validate knows the v1 model (one '{JOINT}' hinge about +x) and the v2 kinematic "
+                     f"model (joints {', '.join(V2_JOINTS)}, girdle equalities, tendons {', '.join(V2_TENDONS)}); "
+                     f"this model has joints {joints} and tendons {tendons}: teach "
+                     "shoulder_bench.validate.inspect_model its coordinates, planes and girdle")
 
 
 def model_moment_arms(angles_deg, path: Path | str = MODEL_PATH) -> dict[str, np.ndarray]:
@@ -225,14 +261,12 @@ def _moment_arm_targets(view, refs, arms, fine, cond) -> list[dict]:
 def _force_targets(view, refs, law, cond) -> tuple[list[dict], dict]:
     out = []
     rest = relaxed_rest_angle(law)
-    out.append(target("rest_angle", "the relaxed arm rests near hanging (activations 0: passive torque + gravity)",
-                      abs(rest) <= REST_MAX_DEG + TOL, f"{rest:.1f} deg", f"within {REST_MAX_DEG:g} deg of 0 deg"))
+    out.append(target("rest_angle", REST_TEXT, abs(rest) <= REST_MAX_DEG + TOL, f"{rest:.1f} deg", REST_BOUND))
     pdeg = np.arange(0.0, PASSIVE_MAX_DEG + 1e-9, 0.5)
     passive = passive_torque(law, pdeg)
     k = int(np.argmax(np.abs(passive)))
-    out.append(target("passive_torque", f"net passive muscle torque small over 0-{PASSIVE_MAX_DEG:g} deg",
-                      abs(passive[k]) < PASSIVE_MAX_NM, f"{passive[k]:+.2f} N m at {pdeg[k]:g} deg",
-                      f"|torque| < {PASSIVE_MAX_NM:g} N m"))
+    out.append(target("passive_torque", PASSIVE_TEXT, abs(passive[k]) < PASSIVE_MAX_NM,
+                      f"{passive[k]:+.2f} N m at {pdeg[k]:g} deg", PASSIVE_BOUND))
     iso = isometric_torque(law, FINE)
     peaks = {}
     girdle_note = "" if view.girdle == "coupled" else f"model girdle {view.girdle}"
@@ -244,22 +278,23 @@ def _force_targets(view, refs, law, cond) -> tuple[list[dict], dict]:
         ratio = float(iso[k, i] / expected) if expected else None  # a reference without moment arm: no target
         peaks[m] = {"peak_Nm": float(iso[k, i]), "at_deg": float(FINE[k]), "follows": ref, "ref_peak_mm": r_peak,
                     "ref_peak_deg": at, "F0_N": anatomy.F0[m], "expected_Nm": expected, "ratio": ratio}
-        out.append(target(f"peak_torque/{m}", f"{m} peak isometric torque within +-{PEAK_TORQUE_TOL:.0%} of F0 x "
-                          f"the peak moment arm of {references.SHORT[ref]} ({cond})",
+        out.append(target(f"peak_torque/{m}", peak_text(m, ref, cond),
                           ratio is not None and abs(ratio - 1.0) <= PEAK_TORQUE_TOL + TOL,
                           f"{iso[k, i]:+.2f} N m at {FINE[k]:g} deg; {anatomy.F0[m]:g} N x {r_peak:+.1f} mm "
                           f"(at {at:g} deg) = {expected:+.2f} N m; ratio " + ("-" if ratio is None else f"{ratio:.2f}"),
-                          f"ratio {1 - PEAK_TORQUE_TOL:.2f}-{1 + PEAK_TORQUE_TOL:.2f}", girdle_note))
+                          PEAK_BOUND, girdle_note))
     return out, {"relaxed_rest_deg": rest, "passive_angle_deg": pdeg.tolist(),
                  "passive_torque_Nm": passive.round(4).tolist(), "peak_isometric_torque": peaks}
 
 
-def _sign_targets(view, refs, arms) -> list[dict]:
+def _sign_targets(view, refs, curve_of) -> list[dict]:
+    """The rotation and plane-of-elevation sign targets in view.task_plane; curve_of(muscle, coordinate) gives the
+    model's coupled-girdle curve on ELEVATIONS (or None) and its note."""
     out = []
     for m, role in SIGN_MUSCLES.items():
         for coord in ("shoulder_rot", "elv_angle"):
             parent = float(refs.curve("mobl_arms", m, coord, view.task_plane, "coupled", ELEVATIONS).mean())
-            mine, note = model_curve(view, arms, m, coord, view.task_plane, "coupled")
+            mine, note = curve_of(m, coord)
             text = (f"{m} {references.DOF_LABELS[coord]} moment arm with the parent's sign"
                     + (f" ({role})" if coord == "shoulder_rot" else ""))
             bound = f"sign of the parent's mean, {parent:+.1f} mm"
@@ -282,12 +317,17 @@ def evaluate(muscle_model: str = DEFAULT_MUSCLE_MODEL, path: Path | str = MODEL_
     from shoulder_bench.muscle import ForceLaw
 
     view = inspect_model(path)
+    if view.version == "2":
+        from shoulder_bench import validate_v2
+
+        return validate_v2.evaluate(view, _shown(path), path)
     refs = references.load()
     arms, fine = model_moment_arms(ELEVATIONS, path), model_moment_arms(FINE, path)
     law = ForceLaw.load(muscle_model)
     cond = f"{PLANE_NAMES.get(view.task_plane, view.task_plane)} plane, rotation 0, girdle coupled, 0-120 deg"
     forces, quantities = _force_targets(view, refs, law, cond)
-    targets = _moment_arm_targets(view, refs, arms, fine, cond) + forces + _sign_targets(view, refs, arms)
+    signs = _sign_targets(view, refs, lambda m, c: model_curve(view, arms, m, c, view.task_plane, "coupled"))
+    targets = _moment_arm_targets(view, refs, arms, fine, cond) + forces + signs
     cap = isometric_torque(law, [0.0, 5.0, 10.0])
     i_s, i_d = law.muscles.index("ssp"), law.muscles.index("dmi")
     return {
@@ -310,9 +350,12 @@ def _run(args) -> int:
     from shoulder_bench.fem import output_folder
 
     out = output_folder(args.out, "--out")
+    if not Path(args.model).is_file():
+        raise FileNotFoundError(f"--model {args.model}: no such file; give an MJCF (models/shoulder.xml, the default, "
+                                "or models/shoulder_v2.xml)")
     from shoulder_bench.validate_report import print_report, write_figures
 
-    report = evaluate(args.muscle_model)
+    report = evaluate(args.muscle_model, args.model)
     report["figures"] = [str(p) for p in write_figures(report, out)]
     if args.json:
         print(json.dumps(report, indent=1, allow_nan=False))
@@ -328,9 +371,12 @@ def add_parser(subparsers):
     sub = p.add_subparsers(dest="model_command", required=True, metavar="SUBCOMMAND")
     v = sub.add_parser("validate", help="moment arms against the MoBL-ARMS, MyoArm and OpenSim references, rest "
                        "posture, passive and peak torques; overlay figures; exit status 1 when a target is missed")
+    v.add_argument("--model", type=Path, default=MODEL_PATH, metavar="PATH",
+                   help="the MJCF to validate: v1 (default, models/shoulder.xml, the tasks' model) or the v2 "
+                   "kinematic model (models/shoulder_v2.xml: geometry only, its force targets not yet)")
     v.add_argument("--json", action="store_true", help="print one JSON object instead of the tables")
     v.add_argument("--out", type=Path, default=Path("."), help="folder for the figures validate_<muscle>.png "
-                   "(default: the current folder; created if missing)")
+                   "(v2: validate_v2_<muscle>.png; default: the current folder; created if missing)")
     v.add_argument("--muscle-model", choices=MUSCLE_MODELS, default=DEFAULT_MUSCLE_MODEL,
                    help="muscle tables for the force quantities (default: %(default)s)")
     v.set_defaults(func=_run)

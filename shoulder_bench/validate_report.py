@@ -1,5 +1,5 @@
 """The report of `shoulder-bench model validate`: the text tables and the overlay figures (shoulder_bench.validate
-computes everything they show)."""
+and, for the v2 model, shoulder_bench.validate_v2 compute everything they show)."""
 from __future__ import annotations
 
 import sys
@@ -8,7 +8,10 @@ from pathlib import Path
 import numpy as np
 
 from shoulder_bench import anatomy, references
-from shoulder_bench.validate import ENVELOPE_MARGIN_MM, NOT_MODELLED, PASSIVE_MAX_DEG, PLANE_NAMES
+from shoulder_bench.validate import ENVELOPE_MARGIN_MM, NOT_MODELLED, PASSIVE_MAX_DEG, PLANE_NAMES, SIGN_MUSCLES
+
+COLOURS = {"mobl_arms": "tab:blue", "myoarm": "tab:green", "mobl_opensim": "tab:orange"}
+COLS = [0, 30, 60, 90, 120]
 
 
 def _fmt(x) -> str:
@@ -20,13 +23,14 @@ def print_report(r: dict, file=None) -> None:
         print(*a, file=file or sys.stdout)
 
     mod, ma = r["model"], r["moment_arms"]
+    if mod["version"] == "2":
+        return _print_v2(r, say)
     refs, short = references.REFERENCES, references.SHORT
     say(f"shoulder-bench model validate: {mod['path']} (model version {mod['version']}), muscle tables "
         f"{mod['muscle_model']}")
     say(f"model: {mod['description']}")
-    say(f"references: {', '.join(references.LABELS[x] for x in refs)} (computer-model outputs, not cadaver data); "
-        "follows: " + ", ".join(f"{m} {short[f['reference']]}" for m, f in r["follows"].items()))
-    cols = [0, 30, 60, 90, 120]
+    _say_references(r, say)
+    cols = COLS
     idx = [ma["elevation_deg"].index(c) for c in cols]
     tp = mod["task_plane_deg"]
     say(f"\nElevation moment arm (mm, + elevates), {PLANE_NAMES.get(tp, tp)} plane, rotation 0; model girdle "
@@ -68,10 +72,24 @@ def print_report(r: dict, file=None) -> None:
     reach = r["ssp_static_reach_deg"]
     say(f"ssp static reach with the {r['humerus_mass_kg']:g} kg humerus (ssp alone at activation 1 holds the arm up "
         f"to): {'none' if reach is None else f'{reach:.1f} deg'}")
+    say(f"\nTargets: {sum(t['passed'] for t in r['targets'])} of {len(r['targets'])} pass")
+    _say_targets(r, say)
+
+
+def _say_references(r, say):
+    refs, short = references.REFERENCES, references.SHORT
+    say(f"references: {', '.join(references.LABELS[x] for x in refs)} (computer-model outputs, not cadaver data); "
+        "follows: " + ", ".join(f"{m} {short[f['reference']]}" for m, f in r["follows"].items()))
+
+
+def _say_targets(r, say):
     n_pass = sum(t["passed"] for t in r["targets"])
-    say(f"\nTargets: {n_pass} of {len(r['targets'])} pass")
     for t in r["targets"]:
         say(f"[{'pass' if t['passed'] else 'FAIL'}] {t['target']}: {t['measured']} (bound: {t['bound']})")
+        for plane, res in t.get("planes", {}).items():  # v2: each candidate tasks' plane
+            bound = f" (bound: {res['bound']})" if t["bound"] == "per plane" else ""
+            say(f"       {PLANE_NAMES[int(plane)]} ({plane} deg) {'pass' if res['passed'] else 'FAIL'}: "
+                f"{res['measured']}{bound}")
         if t["note"]:
             say(f"       {t['note']}")
     for f in r.get("figures", []):
@@ -79,9 +97,95 @@ def print_report(r: dict, file=None) -> None:
     say("all targets met" if r["passed"] else f"{len(r['targets']) - n_pass} target(s) missed: exit status 1")
 
 
+def _two_plane_table(say, ma, rows, label_width=22):
+    """rows: (label, curve key, source) with source 'model' or a reference; both planes side by side."""
+    idx = [ma["elevation_deg"].index(c) for c in COLS]
+    say(f"{'':{label_width}s}" + "".join(f"{f'{n} ({p} deg)':>37s}" for n, p in references.PLANES.items()))
+    say(f"{'':{label_width}s}" + ("  " + "".join(f"{c:>7d}" for c in COLS)) * len(references.PLANES))
+    for label, key, source in rows:
+        line = f"{label:{label_width}s}"
+        for p in references.PLANES.values():
+            k = key.format(plane=p)
+            v = ma["model_mm"][k] if source == "model" else ma["references_mm"][k][source]
+            line += "  " + "".join(f"{v[i]:7.1f}" for i in idx)
+        say(line)
+
+
+def _print_v2(r, say):
+    mod, ma = r["model"], r["moment_arms"]
+    short, girdles = references.SHORT, references.GIRDLES
+    say(f"shoulder-bench model validate: {mod['path']} (model v2, kinematic: geometry only, not used by the tasks)")
+    say(f"model: {mod['description']}")
+    _say_references(r, say)
+    say("v2 muscles: " + "; ".join(f"{m} = " + " + ".join(f"{w:.3f} {t}" for t, w in ws.items())
+                                   for m, ws in mod["tendons"].items() if len(ws) > 1)
+        + " (F0-weighted mean, the parent's F0)")
+    say(f"note: {mod['note']}")
+    say("\nElevation moment arm (mm, + elevates), rotation 0")
+    rows = []
+    for m in anatomy.MUSCLES:
+        rows += [(f"{m} v2 {g}", f"{m}/shoulder_elv/{{plane}}/{g}", "model") for g in girdles]
+        rows += [(f"{m} {short[x]} {g}", f"{m}/shoulder_elv/{{plane}}/{g}", x) for g in girdles
+                 for x in references.REFERENCES]
+    _two_plane_table(say, ma, rows)
+    say("\nRotation (+ internal) and plane-of-elevation (+ anterior) moment arms (mm) of "
+        f"{' and '.join(SIGN_MUSCLES)}, rotation 0, girdle coupled")
+    rows = [(f"{m} {references.DOF_LABELS[c]} {'v2' if x == 'model' else short[x]}", f"{m}/{c}/{{plane}}/coupled", x)
+            for m in SIGN_MUSCLES for c in ("shoulder_rot", "elv_angle") for x in ("model", *references.REFERENCES)]
+    _two_plane_table(say, ma, rows, 24)
+    say(f"\nMoment-arm RMSE (mm) against each reference; envelope: the references not left out +- "
+        f"{ENVELOPE_MARGIN_MM:g} mm, w/o MyoArm: the same without MyoArm (v2 = MyoArm), worst mm outside at deg; "
+        "elevation 0-120 deg, rotation 0")
+    plane_head = "".join(f"{f'{n} ({p} deg)':>51s}" for n, p in references.PLANES.items())
+    say(f"{'':27s}{plane_head}")
+    say(f"{'muscle':7s}{'DOF':11s}{'girdle':9s}" + ("  " + "".join(f"{short[x]:>8s}" for x in references.REFERENCES)
+                                                   + f"{'envelope':>12s}{'w/o MyoArm':>13s}") * 2)
+    by_key = {(x["muscle"], x["coordinate"], x["plane_deg"], x["girdle"]): x for x in ma["rmse"]}
+    for m in anatomy.MUSCLES:
+        for c in references.COORDINATES:
+            for g in girdles:
+                line = f"{m:7s}{references.DOF_LABELS[c]:11s}{g:9s}"
+                for p in references.PLANES.values():
+                    row = by_key[(m, c, p, g)]
+                    line += "  " + "".join(f"{_fmt(row['rmse_mm'][x]):>8s}" for x in references.REFERENCES)
+                    for env, width in ((row["envelope"], 12), (row["envelope_without_myoarm"], 13)):
+                        out = "inside" if env["inside"] else f"{env['outside_mm']:.1f} at {env['at_deg']:g}"
+                        line += f"{out:>{width}s}"
+                say(line)
+    say("envelope references: " + "; ".join(
+        f"{m} " + ", ".join(short[x] for x in references.REFERENCES if x not in references.ENVELOPE_EXCLUDED.get(m, {}))
+        for m in anatomy.MUSCLES) + " (the v2 targets use this envelope; w/o MyoArm is shown only)")
+    say("\nQuantities")
+    for what in ("relaxed rest angle (activations 0)", f"net passive torque over 0-{PASSIVE_MAX_DEG:g} deg",
+                 "peak isometric torque (a = 1 minus a = 0, 0-120 deg)", "ssp/dmi isometric torque ratio",
+                 f"ssp static reach with the {r['humerus_mass_kg']:.3g} kg humerus"):
+        say(f"{what}: {r['not_yet']}")
+    n_pass = sum(t["passed"] for t in r["targets"])
+    tp = mod["task_plane_deg"]
+    chosen = ("tasks' plane not chosen yet (validate.TASK_PLANE_V2 = None): the targets in it fail; both candidate "
+              "planes shown" if tp is None else f"tasks' plane {PLANE_NAMES[tp]} ({tp} deg)")
+    say(f"\nTargets: {n_pass} of {len(r['targets'])} pass; {chosen}")
+    say("moment-arm targets met per candidate plane (girdle coupled): " + ", ".join(
+        f"{PLANE_NAMES[int(p)]} {c['passed']} of {c['of']}" for p, c in r["per_plane_passed"].items())
+        + "; the force targets not yet")
+    _say_targets(r, say)
+
+
+def _draw_references(ax, m: str, x, curves: dict) -> None:
+    """The references' curves (dotted: left out of the envelope) and the envelope +- margin, shaded."""
+    for ref, y in curves.items():
+        left = ref in references.ENVELOPE_EXCLUDED.get(m, {})
+        ax.plot(x, y, color=COLOURS[ref], ls=":" if left else "-",
+                label=references.LABELS[ref] + (" (not in envelope)" if left else ""))
+    used = np.array([y for ref, y in curves.items() if ref not in references.ENVELOPE_EXCLUDED.get(m, {})])
+    ax.fill_between(x, used.min(0) - ENVELOPE_MARGIN_MM, used.max(0) + ENVELOPE_MARGIN_MM, color="0.85",
+                    label=f"envelope +- {ENVELOPE_MARGIN_MM:g} mm")
+
+
 def write_figures(r: dict, out_dir: Path) -> list[Path]:
     """validate_<muscle>.png in out_dir: elevation moment arm vs elevation, model and the three references, for the
-    coronal and scapular planes (columns) and the coupled and fixed girdle (rows); each written atomically."""
+    coronal and scapular planes (columns) and the coupled and fixed girdle (rows); each written atomically. For the
+    v2 model validate_v2_<muscle>.png: every DOF (rows) by plane and girdle (columns)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -91,37 +195,59 @@ def write_figures(r: dict, out_dir: Path) -> list[Path]:
 
     ma, mod = r["moment_arms"], r["model"]
     x = np.asarray(ma["elevation_deg"])
-    colours = {"mobl_arms": "tab:blue", "myoarm": "tab:green", "mobl_opensim": "tab:orange"}
     paths = []
     for m in anatomy.MUSCLES:
-        fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharex=True, sharey=True)
-        for (i, girdle), (j, (pname, plane)) in ((a, b) for a in enumerate(references.GIRDLES)
-                                                 for b in enumerate(references.PLANES.items())):
-            ax = axes[i, j]
-            curves = ma["references_mm"][f"{m}/shoulder_elv/{plane}/{girdle}"]
-            for ref, y in curves.items():
-                left = ref in references.ENVELOPE_EXCLUDED.get(m, {})
-                ax.plot(x, y, color=colours[ref], ls=":" if left else "-",
-                        label=references.LABELS[ref] + (" (not in envelope)" if left else ""))
-            used = np.array([y for ref, y in curves.items() if ref not in references.ENVELOPE_EXCLUDED.get(m, {})])
-            ax.fill_between(x, used.min(0) - ENVELOPE_MARGIN_MM, used.max(0) + ENVELOPE_MARGIN_MM, color="0.85",
-                            label=f"envelope +- {ENVELOPE_MARGIN_MM:g} mm")
-            if plane in mod["planes_deg"]:
-                fixed_only = girdle != mod["girdle"]
-                ax.plot(x, ma["model_mm"][m], "k--" if fixed_only else "k-", lw=2,
-                        label=f"model (girdle {mod['girdle']})")
-            else:
-                ax.text(0.5, 0.05, "model: " + NOT_MODELLED, transform=ax.transAxes, ha="center", fontsize=8)
-            ax.axhline(0, color="0.5", lw=0.5)
-            ax.set_title(f"{pname} plane ({plane} deg), girdle {girdle}", fontsize=10)
-            ax.set_xlabel("elevation (deg)") if i == 1 else None
-            ax.set_ylabel("moment arm (mm, + elevates)") if j == 0 else None
-        axes[0, 0].legend(fontsize=7, loc="best")
-        fig.suptitle(f"{anatomy.MUSCLE_NAMES[m]} ({m}): elevation moment arm, rotation 0")
-        fig.tight_layout()
-        path = Path(out_dir) / f"validate_{m}.png"
+        if mod["version"] == "2":
+            fig = _figure_v2(plt, m, ma)
+            path = Path(out_dir) / f"validate_v2_{m}.png"
+        else:
+            fig = _figure_v1(plt, m, ma, mod, x)
+            path = Path(out_dir) / f"validate_{m}.png"
         with replacing(path) as tmp:
             fig.savefig(tmp, dpi=90)
         plt.close(fig)
         paths.append(path)
     return paths
+
+
+def _figure_v1(plt, m, ma, mod, x):
+    fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharex=True, sharey=True)
+    for (i, girdle), (j, (pname, plane)) in ((a, b) for a in enumerate(references.GIRDLES)
+                                             for b in enumerate(references.PLANES.items())):
+        ax = axes[i, j]
+        _draw_references(ax, m, x, ma["references_mm"][f"{m}/shoulder_elv/{plane}/{girdle}"])
+        if plane in mod["planes_deg"]:
+            fixed_only = girdle != mod["girdle"]
+            ax.plot(x, ma["model_mm"][m], "k--" if fixed_only else "k-", lw=2, label=f"model (girdle {mod['girdle']})")
+        else:
+            ax.text(0.5, 0.05, "model: " + NOT_MODELLED, transform=ax.transAxes, ha="center", fontsize=8)
+        ax.axhline(0, color="0.5", lw=0.5)
+        ax.set_title(f"{pname} plane ({plane} deg), girdle {girdle}", fontsize=10)
+        ax.set_xlabel("elevation (deg)") if i == 1 else None
+        ax.set_ylabel("moment arm (mm, + elevates)") if j == 0 else None
+    axes[0, 0].legend(fontsize=7, loc="best")
+    fig.suptitle(f"{anatomy.MUSCLE_NAMES[m]} ({m}): elevation moment arm, rotation 0")
+    fig.tight_layout()
+    return fig
+
+
+def _figure_v2(plt, m, ma):
+    """3 DOFs (rows) x (coronal, scapular) x (coupled, fixed) (columns): v2 every 1 deg, references on their grid."""
+    x, xf = np.asarray(ma["elevation_deg"]), np.asarray(ma["fine_elevation_deg"])
+    cells = [(n, p, g) for n, p in references.PLANES.items() for g in references.GIRDLES]
+    fig, axes = plt.subplots(3, len(cells), figsize=(17, 11), sharex=True, sharey="row")
+    signs = {"shoulder_elv": "+ elevates", "shoulder_rot": "+ internal", "elv_angle": "+ anterior"}
+    for i, coord in enumerate(references.COORDINATES):
+        for j, (pname, plane, girdle) in enumerate(cells):
+            ax, key = axes[i, j], f"{m}/{coord}/{plane}/{girdle}"
+            _draw_references(ax, m, x, ma["references_mm"][key])
+            ax.plot(xf, ma["model_fine_mm"][key], "k-", lw=2, label="v2 model")
+            ax.axhline(0, color="0.5", lw=0.5)
+            ax.set_title(f"{references.DOF_LABELS[coord]}: {pname} ({plane} deg), girdle {girdle}", fontsize=9)
+            ax.set_xlabel("elevation (deg)") if i == 2 else None
+            ax.set_ylabel(f"{references.DOF_LABELS[coord]} moment arm (mm, {signs[coord]})") if j == 0 else None
+    axes[0, 0].legend(fontsize=7, loc="best")
+    fig.suptitle(f"{anatomy.MUSCLE_NAMES[m]} ({m}): v2 kinematic model against the references, rotation 0 "
+                 "(v2 = MyoArm's geometry: its MyoArm match is near-tautological)")
+    fig.tight_layout()
+    return fig

@@ -1,0 +1,165 @@
+"""`shoulder-bench model validate --model models/shoulder_v2.xml`: the v2 kinematic model's geometry against the
+reference moment arms and the model-v2 issue's targets (docs/validation.md).
+
+Moment arms come from `shoulder_bench.kinematics.moment_arms` (the reference tables' own method: GH coordinates set,
+slaved girdle coordinates from the model's equality polynomials, central differences h = 0.25 deg, one-sided across a
+path jump) in all three DOFs (shoulder_elv, shoulder_rot, elv_angle), in the coronal (0 deg) and scapular (30 deg)
+planes, rotation 0, girdle coupled and fixed. ld is the F0-weighted mean of the tendons ld1-3 with the parent's F0
+(`ReferenceTables.v2_weights`), the rule `shoulder_bench.references` applies to the references' LAT1-3.
+
+The v2 geometry is MyoArm's, reconstructed exactly (docs/model_v2.md; only the clavicle sits at MoBL's SC location,
+which changes ld1-3 coupled about shoulder_elv): its MyoArm comparison is close to a tautology. The envelope and the
+parent and OpenSim comparisons are the informative ones.
+
+The tasks' plane of elevation for v2 is `validate.TASK_PLANE_V2` (None: not chosen). Every target in the tasks'
+plane is evaluated in both candidate planes and shown per plane; it passes only in the chosen plane, so with None it
+fails with "tasks' plane not chosen yet". v2 has no actuators or force tables: the force targets fail "not yet".
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from shoulder_bench import anatomy, references
+from shoulder_bench import validate as V
+from shoulder_bench.kinematics import moment_arms
+from shoulder_bench.model import compile_model
+
+NOT_YET = "not yet: the v2 model has no muscle forces (actuators/tables come in a later step)"
+TAUTOLOGY = ("v2's geometry is MyoArm's, reconstructed exactly (docs/model_v2.md; ld1-3 coupled about shoulder_elv "
+             "differ by the clavicle move, ld by the parent's F0 split): its MyoArm comparison is close to a "
+             "tautology; the envelope and the parent and OpenSim comparisons are the informative ones")
+PLANES = tuple(references.PLANES.values())
+FORCE_QUANTITIES = ("relaxed_rest_deg", "passive_angle_deg", "passive_torque_Nm", "peak_isometric_torque",
+                    "capacity_ratio_ssp_dmi", "ssp_static_reach_deg")
+
+
+def curves(model, refs, elevations) -> tuple[dict, dict]:
+    """v2 moment arms (mm) over `elevations` at rotation 0 in both planes and girdle modes, about every coordinate:
+    ({(muscle, coordinate, plane, girdle): array}, {(tendon, coordinate, plane, girdle): array})."""
+    tendons, n = list(V.V2_TENDONS), len(elevations)
+    poses = [(p, float(e), 0.0) for p in PLANES for e in elevations]
+    ours, bundles = {}, {}
+    for g in references.GIRDLES:
+        arms = moment_arms(model, tendons, poses, g)
+        for c in references.COORDINATES:
+            for i, p in enumerate(PLANES):
+                block = arms[c][i * n:(i + 1) * n]
+                for j, t in enumerate(tendons):
+                    bundles[(t, c, p, g)] = block[:, j]
+                for m in anatomy.MUSCLES:
+                    ours[(m, c, p, g)] = sum(w * block[:, tendons.index(t)] for t, w in refs.v2_weights(m).items())
+    return ours, bundles
+
+
+def _key(k) -> str:
+    return "/".join(str(x) for x in k)
+
+
+def _envelope(mine, used: dict) -> dict:
+    """The envelope excursion of `mine` (V.envelope_excursion) with the references used and the worst angle."""
+    env = V.envelope_excursion(mine, used)
+    return {"references": list(used), "margin_mm": V.ENVELOPE_MARGIN_MM, "inside": env["outside_mm"] <= V.TOL,
+            "outside_mm": env["outside_mm"], "at_deg": float(V.ELEVATIONS[env["index"]]), "model_mm": env["model_mm"],
+            "lo_mm": env["lo_mm"], "hi_mm": env["hi_mm"]}
+
+
+def moment_arm_section(refs, grid: dict, fine: dict, bundles: dict) -> dict:
+    """Curves, per-reference RMSE and the envelope excursion for every muscle, DOF, plane and girdle."""
+    rows, ref_curves = [], {}
+    for m in anatomy.MUSCLES:
+        excluded = references.ENVELOPE_EXCLUDED.get(m, {})
+        for coord in references.COORDINATES:
+            for plane in PLANES:
+                for girdle in references.GIRDLES:
+                    ref = {r: refs.curve(r, m, coord, plane, girdle, V.ELEVATIONS) for r in references.REFERENCES}
+                    ref_curves[f"{m}/{coord}/{plane}/{girdle}"] = {r: np.round(v, 3).tolist() for r, v in ref.items()}
+                    mine = grid[(m, coord, plane, girdle)]
+                    used = {r: v for r, v in ref.items() if r not in excluded}
+                    closest, err = V.best_rmse(mine, used)
+                    rows.append({"muscle": m, "coordinate": coord, "plane_deg": plane, "girdle": girdle,
+                                 "rmse_mm": {r: V.rmse(mine, v) for r, v in ref.items()},
+                                 "envelope": _envelope(mine, used),
+                                 "envelope_without_myoarm": _envelope(mine, {r: v for r, v in used.items()
+                                                                            if r != "myoarm"}),
+                                 "closest": {"reference": closest, "rmse_mm": err}, "note": ""})
+    return {"elevation_deg": V.ELEVATIONS.tolist(), "fine_elevation_deg": V.FINE.tolist(),
+            "model_mm": {_key(k): np.round(v, 3).tolist() for k, v in grid.items()},
+            "model_fine_mm": {_key(k): np.round(v, 3).tolist() for k, v in fine.items()},
+            "model_tendons_mm": {_key(k): np.round(v, 3).tolist() for k, v in bundles.items()},
+            "references_mm": ref_curves, "rmse": rows}
+
+
+def _plane_targets(refs, grid: dict, fine: dict, plane: int, cond: str) -> tuple[list[dict], list[dict]]:
+    """(moment-arm targets, sign targets) as if `plane` were the tasks' plane: v1's target logic on v2's curves."""
+    view = V.ModelView(("shoulder_elv",), (plane,), "coupled", plane, "", version="2")
+    arms = {m: grid[(m, "shoulder_elv", plane, "coupled")] for m in anatomy.MUSCLES}
+    fine_arms = {m: fine[(m, "shoulder_elv", plane, "coupled")] for m in anatomy.MUSCLES}
+    signs = V._sign_targets(view, refs, lambda m, c: (grid[(m, c, plane, "coupled")], ""))
+    return V._moment_arm_targets(view, refs, arms, fine_arms, cond), signs
+
+
+def combine(per_plane: dict[int, list[dict]], task_plane: int | None) -> list[dict]:
+    """One target per id from its per-plane results: passed and measured from the tasks' plane, or failed with
+    NO_TASK_PLANE when none is chosen; every plane's result kept under `planes`."""
+    out = []
+    for rows in zip(*per_plane.values()):
+        first = rows[0]
+        assert all(t["id"] == first["id"] and t["target"] == first["target"] for t in rows)
+        planes = {str(p): {"passed": t["passed"], "measured": t["measured"], "bound": t["bound"]}
+                  for p, t in zip(per_plane, rows)}
+        bound = first["bound"] if len({t["bound"] for t in rows}) == 1 else "per plane"
+        if task_plane is None:
+            passed, measured = False, V.NO_TASK_PLANE
+        else:
+            passed, measured = planes[str(task_plane)]["passed"], planes[str(task_plane)]["measured"]
+        out.append({**V.target(first["id"], first["target"], passed, measured, bound, first["note"]),
+                    "task_plane_deg": task_plane, "planes": planes})
+    return out
+
+
+def _force_targets(refs, cond: str) -> list[dict]:
+    """v1's force targets, each failed "not yet"; the peak-torque targets note the expected torque per plane."""
+    out = [V.target("rest_angle", V.REST_TEXT, False, NOT_YET, V.REST_BOUND),
+           V.target("passive_torque", V.PASSIVE_TEXT, False, NOT_YET, V.PASSIVE_BOUND)]
+    for m in anatomy.MUSCLES:
+        ref = references.FOLLOWS[m][0]
+        expected = []
+        for name, plane in references.PLANES.items():
+            r_peak, at = refs.peak(ref, m, "shoulder_elv", plane, "coupled", V.ELEVATIONS)
+            expected.append(f"{name} {anatomy.F0[m]:g} N x {r_peak:+.1f} mm (at {at:g} deg) = "
+                            f"{anatomy.F0[m] * r_peak / 1000.0:+.2f} N m")
+        out.append(V.target(f"peak_torque/{m}", V.peak_text(m, ref, cond), False, NOT_YET, V.PEAK_BOUND,
+                            "expected: " + "; ".join(expected)))
+    return out
+
+
+def evaluate(view: V.ModelView, shown: str, path) -> dict:
+    """The v2 report (the same keys as v1's; the force quantities None, see `not_yet`)."""
+    model = compile_model(path)
+    refs = references.load()
+    grid, bundles = curves(model, refs, V.ELEVATIONS)
+    fine, _ = curves(model, refs, V.FINE)
+    tp = view.task_plane
+    plane_text = "tasks'" if tp is None else V.PLANE_NAMES[tp]
+    cond = f"{plane_text} plane, rotation 0, girdle coupled, 0-120 deg"
+    results = {p: _plane_targets(refs, grid, fine, p, cond) for p in PLANES}
+    arm_targets = combine({p: r[0] for p, r in results.items()}, tp)
+    sign_targets = combine({p: r[1] for p, r in results.items()}, tp)
+    targets = arm_targets + _force_targets(refs, cond) + sign_targets
+    per_plane = {str(p): {"passed": sum(t["passed"] for t in r[0] + r[1]), "of": len(r[0] + r[1])}
+                 for p, r in results.items()}
+    return {
+        "model": {"path": shown, "version": "2", "kinematic_only": True, "muscle_model": None,
+                  "description": view.describe(), "girdle": view.girdle, "task_plane_deg": tp,
+                  "coordinates": list(view.coordinates), "planes_deg": list(view.planes),
+                  "tendons": {m: refs.v2_weights(m) for m in anatomy.MUSCLES}, "note": TAUTOLOGY},
+        "follows": {m: {"reference": r, "reason": why} for m, (r, why) in references.FOLLOWS.items()},
+        "envelope_excluded": references.ENVELOPE_EXCLUDED,
+        "moment_arms": moment_arm_section(refs, grid, fine, bundles),
+        **dict.fromkeys(FORCE_QUANTITIES),
+        "not_yet": NOT_YET,
+        "humerus_mass_kg": float(model.body("humerus").mass[0]),
+        "per_plane_passed": per_plane,
+        "targets": targets,
+        "passed": all(t["passed"] for t in targets),
+    }
