@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from shoulder_bench import anatomy, references
-from shoulder_bench.validate import ENVELOPE_MARGIN_MM, NOT_MODELLED, PASSIVE_MAX_DEG, PLANE_NAMES, SIGN_MUSCLES
+from shoulder_bench.validate import ENVELOPE_MARGIN_MM, NOT_MODELLED, PASSIVE_MAX_DEG, PLANE_NAMES
 
 COLOURS = {"mobl_arms": "tab:blue", "myoarm": "tab:green", "mobl_opensim": "tab:orange"}
 COLS = [0, 30, 60, 90, 120]
@@ -121,18 +121,13 @@ def _print_v2(r, say):
                                    for m, ws in mod["tendons"].items() if len(ws) > 1)
         + " (F0-weighted mean, the parent's F0)")
     say(f"note: {mod['note']}")
-    say("\nElevation moment arm (mm, + elevates), rotation 0")
+    say("\nElevation moment arm (mm, + elevates), rotation 0 (every DOF: --json and the figures)")
     rows = []
     for m in anatomy.MUSCLES:
         rows += [(f"{m} v2 {g}", f"{m}/shoulder_elv/{{plane}}/{g}", "model") for g in girdles]
         rows += [(f"{m} {short[x]} {g}", f"{m}/shoulder_elv/{{plane}}/{g}", x) for g in girdles
                  for x in references.REFERENCES]
     _two_plane_table(say, ma, rows)
-    say("\nRotation (+ internal) and plane-of-elevation (+ anterior) moment arms (mm) of "
-        f"{' and '.join(SIGN_MUSCLES)}, rotation 0, girdle coupled")
-    rows = [(f"{m} {references.DOF_LABELS[c]} {'v2' if x == 'model' else short[x]}", f"{m}/{c}/{{plane}}/coupled", x)
-            for m in SIGN_MUSCLES for c in ("shoulder_rot", "elv_angle") for x in ("model", *references.REFERENCES)]
-    _two_plane_table(say, ma, rows, 24)
     say(f"\nMoment-arm RMSE (mm) against each reference; envelope: the references not left out +- "
         f"{ENVELOPE_MARGIN_MM:g} mm, w/o MyoArm: the same without MyoArm (v2 = MyoArm), worst mm outside at deg; "
         "elevation 0-120 deg, rotation 0")
