@@ -43,6 +43,16 @@ THORAX_QUAT = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)  # thorax y (superior) 
 # data has no girdle masses. Not anatomy; 0.1 g puts no measurable load on the slaved joints.
 PLACEHOLDER_INERTIAL = '<inertial pos="0 0 0" mass="0.0001" diaginertia="1e-08 1e-08 1e-08"/>'
 TENDON_RGBA = {t: MUSCLE_RGBA[t[:2] if t.startswith("ld") else t] for t in D.MUSCLES}
+# Simulating the model (`model_xml(dynamics=True)` + `harden_couplings`; benchmarks/v2_dynamics.py, docs/model_v2.md
+# "Dynamics: options measured"). Numerical settings, not anatomy; none has a source.
+# MuJoCo's hardest impedance (solimp dmax is capped at 0.9999): the couplings' regularizer R = (1 - d)/d * A_hat.
+COUPLING_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2)
+# A_hat of a joint equality comes from dof_invweight0, which MuJoCo computes at qpos0 from the inverse mass matrix.
+# The placeholder girdle bodies make it ~1e8 (modes in which only they move), so R swamps the humerus's
+# ~1/0.06 kg m^2 and the couplings go soft (the girdle lags by degrees) or blow up. harden_couplings() overwrites it
+# after compiling: it changes only the constraint softness (R), not the inertia, the forces or the reference
+# acceleration. MJCF has no attribute for it.
+COUPLING_INVWEIGHT = 0.01
 
 
 def _n(x: float) -> str:
@@ -98,16 +108,90 @@ def _scapula_visual(frames: dict, paths: dict) -> str:
             f'quat="{_v(_mat_quat(R), _c)}" size="{_v(size, _c)}"/>')
 
 
-def model_xml(clavicle: str = "mobl", folder: Path | None = None) -> str:
-    """The v2 MJCF. `clavicle="myoarm"` puts the clavicle where MyoArm has it (for the reconstruction test only)."""
+def _qmul(a, b) -> tuple:
+    w1, v1, w2, v2 = a[0], np.asarray(a[1:]), b[0], np.asarray(b[1:])
+    return (w1 * w2 - v1 @ v2, *(w1 * v2 + w2 * v1 + np.cross(v1, v2)))
+
+
+def _axis_quat(axis, angle: float) -> tuple:
+    u = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    return (math.cos(angle / 2), *(math.sin(angle / 2) * u))
+
+
+def _rotate(q, v) -> tuple:
+    """R(q) v for a unit quaternion q = (w, x, y, z)."""
+    p = _qmul(_qmul(q, (0.0, *v)), (q[0], -q[1], -q[2], -q[3]))
+    return tuple(p[1:])
+
+
+def _locked_values(plane_deg: float) -> dict[str, float]:
+    """The locked 1-DOF variant's fixed GH coordinates (rad): the plane, shoulder1_r2 = -plane, rotation 0."""
+    p = math.radians(plane_deg)
+    return {"elv_angle": p, "shoulder1_r2": -p, "shoulder_rot": 0.0}
+
+
+def _lock(frames: dict, joints: list, locked: dict[str, float]) -> tuple[dict, list]:
+    """Bake locked hinges into the body frames: a body's leading locked joints into its own quat, its trailing ones
+    into its child's pos and quat (allowed only where the body carries nothing but its placeholder inertial, so
+    nothing else it holds would have to turn). MuJoCo applies a body's joints in order, xquat = quat * q1 * q2 ..."""
+    frames, kept = dict(frames), []
+    by_body = {b: [j for j in joints if j.body == b] for b in D.CHAIN}
+    for i, b in enumerate(D.CHAIN):
+        js = by_body[b]
+        free = [k for k, j in enumerate(js) if j.name not in locked]
+        lead = js[:free[0]] if free else js
+        trail = js[free[-1] + 1:] if free else []
+        if free and any(j.name in locked for j in js[free[0]:free[-1] + 1]):
+            raise ValueError(f"body {b}: a locked joint between free ones cannot be baked into a frame")
+        q = frames[b].quat
+        for j in lead:
+            q = _qmul(q, _axis_quat(j.axis, locked[j.name]))
+        frames[b] = dataclasses.replace(frames[b], quat=q)
+        if trail:
+            if b in ("thorax", "clavicle", "scapula", "humerus") or i + 1 == len(D.CHAIN):
+                raise ValueError(f"body {b}: trailing locked joints only on a phantom body")
+            r = (1.0, 0.0, 0.0, 0.0)
+            for j in trail:
+                r = _qmul(r, _axis_quat(j.axis, locked[j.name]))
+            child = frames[D.CHAIN[i + 1]]
+            frames[child.name] = dataclasses.replace(child, pos=_rotate(r, child.pos), quat=_qmul(r, child.quat))
+        kept += [j for j in js if j.name not in locked]
+    return frames, kept
+
+
+def harden_couplings(model, invweight: float = COUPLING_INVWEIGHT):
+    """Make a compiled `dynamics=True` model's joint equalities (nearly) hard: set every dof's `dof_invweight0`
+    (the constraint regularizer's scale) to `invweight`. Call it after every compile; `mj_setConst` undoes it."""
+    model.dof_invweight0[:] = invweight
+    return model
+
+
+def model_xml(clavicle: str = "mobl", folder: Path | None = None, locked_plane_deg: float | None = None,
+              dynamics: bool = False) -> str:
+    """The v2 MJCF. `clavicle="myoarm"` puts the clavicle where MyoArm has it (for the reconstruction test only).
+
+    `locked_plane_deg`: the locked 1-DOF variant the paper's tasks run on: elevation (`shoulder_elv`) the only GH
+    coordinate, in the plane of elevation `locked_plane_deg` (0 = coronal), axial rotation 0. `elv_angle`,
+    `shoulder1_r2` (= -plane) and `shoulder_rot` become fixed rotations of the humphant and humerus frames; the
+    girdle stays coupled to elevation by the same polycoef equalities.
+
+    `dynamics=True`: settings for stepping the model (docs/model_v2.md "Dynamics: options measured"): the coupled
+    (slaved) joints get no limits (their ranges start at their rest value, and below 0 deg elevation, past a soft
+    limit, the couplings would fight them; the drivers' limits bound them), the equalities get `COUPLING_SOLIMP`.
+    Compile, then `harden_couplings(model)`. RK4 at v1's timestep, no joint damping (none is needed for stability
+    and no value has a source). The default (False) is the shipped kinematic file."""
     frames, joints, paths = D.body_frames(folder), D.joints(folder), D.muscle_paths(folder)
     D.check_clavicle_parallel(folder)
     if clavicle not in ("mobl", "myoarm"):
         raise ValueError(f"clavicle must be 'mobl' or 'myoarm', not {clavicle!r}")
     sc = D.mobl_sc_location(folder) if clavicle == "mobl" else D.myoarm_sc_location(folder)
+    locked = {} if locked_plane_deg is None else _locked_values(float(locked_plane_deg))
+    frames, joints = _lock(frames, joints, locked)
+    slaved = {c.dependent for c in D.couplings(folder)}
     inner = {b: [] for b in D.CHAIN}
     for j in joints:
-        inner[j.body].append(f'<joint name="{j.name}" axis="{_v(j.axis)}" range="{_v(j.range_deg)}"/>')
+        free = ' limited="false"' if dynamics and j.name in slaved else ""
+        inner[j.body].append(f'<joint name="{j.name}" axis="{_v(j.axis)}" range="{_v(j.range_deg)}"{free}/>')
     for b in D.CHAIN[1:-1]:
         inner[b].append(PLACEHOLDER_INERTIAL)
     hum = D.humerus_inertial(folder)
@@ -138,8 +222,9 @@ def model_xml(clavicle: str = "mobl", folder: Path | None = None) -> str:
             route.append(f'<geom geom="{it.name}"{side}/>')
         tendons.append(f'<spatial name="{tendon}" width="0.003" rgba="{TENDON_RGBA[tendon]}">'
                        + "".join(route) + "</spatial>")
-    eqs = [f'<joint name="{c.name}" joint1="{c.dependent}" joint2="{c.driver}" polycoef="{_v(c.polycoef)}"/>'
-           for c in D.couplings(folder)]
+    imp = f' solimp="{_v(COUPLING_SOLIMP)}"' if dynamics else ""
+    eqs = [f'<joint name="{c.name}" joint1="{c.dependent}" joint2="{c.driver}" polycoef="{_v(c.polycoef)}"{imp}/>'
+           for c in D.couplings(folder) if c.dependent not in locked and c.driver not in locked]
     body_attr = {b: f'pos="{_v(frames[b].pos)}" quat="{_v(frames[b].quat)}"' for b in D.CHAIN[2:]}
     body_attr["thorax"] = f'pos="0 0 0" quat="{_v(THORAX_QUAT)}"'
     body_attr["clavicle"] = f'pos="{_v(sc)}" quat="1 0 0 0"'
@@ -149,10 +234,18 @@ def model_xml(clavicle: str = "mobl", folder: Path | None = None) -> str:
         lines = "".join(f"{pad}  {x}\n" for x in inner[b])
         body = f'{pad}<body name="{b}" {body_attr[b]}>\n{lines}{body}{pad}</body>\n'
     where = "MoBL's SC location" if clavicle == "mobl" else "MyoArm's clavicle location (test variant)"
+    name, variant = "shoulder_v2", ""
+    if locked:
+        name += "_locked"
+        variant += (f"\n       Locked 1-DOF variant: plane of elevation {_n(float(locked_plane_deg))} deg, axial "
+                    "rotation 0\n       (elv_angle, shoulder1_r2, shoulder_rot baked into the frames).")
+    if dynamics:
+        variant += ("\n       Dynamics settings: slaved joints unlimited, hard coupling impedance; call\n"
+                    "       mobl.harden_couplings(model) after compiling.")
     nl = "\n    "
-    return f"""<mujoco model="shoulder_v2">
+    return f"""<mujoco model="{name}">
   <!-- Generated by shoulder_bench/mobl.py from models/reference/*.csv (MyoArm's MoBL-ARMS geometry; clavicle at
-       {where}); edit those, not this file. docs/model_v2.md -->
+       {where}); edit those, not this file. docs/model_v2.md{variant} -->
   <compiler angle="degree" autolimits="true" inertiafromgeom="false"/>
   <option timestep="{PHYSICS_TIMESTEP}" integrator="RK4" gravity="0 0 -9.81"><flag contact="disable"/></option>
   <visual><global offwidth="1280" offheight="960"/></visual>
