@@ -9,7 +9,7 @@ Jacobian from the polycoef slopes) and the reduced dynamics are
     (S^T M(q) S) u'' = S^T (tau - c(q, S u')),
 exact for the coupled chain (the Coriolis term S^T c(q, S u') is the 1/2 M_r'(u) u'^2 of the brief in 1 DOF). M and
 c (gravity + Coriolis) come from MuJoCo (mj_crb, mj_rne) on the chain with the girdle bodies' 0.1 g placeholder
-inertials removed (the humerus only), integrated by RK4 at 1 ms (0.5 ms changes it by < 1e-6 deg).
+inertials removed (the humerus only), integrated by RK4 at 1 ms (0.5 ms changes it by < 1e-7 deg).
 
 Motions (2 s, angles compared at the end of every 0.1 s frame):
   locked 1-DOF (plane 0 = coronal, rotation 0): free fall from 90 deg; a constant torque = the gravity torque at
@@ -22,7 +22,7 @@ Stability ("protocol"): 200 frames (20 s) at the option's step with limits on: a
   Stable: finite, no MuJoCo reset, girdle lag < 1 deg, every coordinate within its range +-90 deg.
 Cost: one MjData stepped in a loop; `mujoco.rollout` of N = 64 and 1024 copies on 2 threads, 10 frames from 45 deg.
 
-    python benchmarks/v2_dynamics.py            # about 1 minute on 2 cores
+    python benchmarks/v2_dynamics.py            # about 30 s on 2 cores; docs/model_v2.md "Dynamics"
 """
 from __future__ import annotations
 
