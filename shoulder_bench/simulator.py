@@ -6,8 +6,21 @@ numpy, the force law is evaluated for the whole batch (one compiled kernel call)
 one `mujoco.rollout` call (threads, GIL released) advances every copy by one explicit Euler step with the muscle forces
 as fixed-gain controls, and the acceleration is read back from the velocity change. The arithmetic is that of MuJoCo's
 `mj_RungeKutta`, so a batched episode reproduces a single-env episode (callback path) to rounding error.
+
+The state is the model's whole qpos (N, nq) and qvel (N, nv): one column for v1's abduction hinge, 11 for the v2
+locked variant (10 girdle hinges slaved to the elevation by joint equalities). Hinge and slide joints only, so that
+qpos integrates like qvel (MuJoCo's `mj_integratePos` is then qpos + qvel h, as here); free and ball joints (quaternion
+positions) are refused. The force law sees one joint's angle and velocity (`joint`).
+
+Constraint solver warmstart: in `mj_step` all four RK4 stages of a step start the solver from `qacc_warmstart`, the
+last stage's acceleration of the previous step. With the v2 couplings (equality rows active at every stage) that
+choice shows: from a zero warmstart (what `rollout` does without one) the solver stops at its tolerance elsewhere and
+a 2 s free fall drifts 1e-9 rad from `mj_step`; carrying the warmstart per copy, as `mj_step` does, it agrees to
+rounding (1e-16). Models with equality constraints carry it by default; v1 (none) keeps the zero warmstart.
 """
 from __future__ import annotations
+
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -18,18 +31,68 @@ from shoulder_bench.model import JOINT, MODEL_PATH, compile_model
 RK4_A = ((0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))  # MuJoCo's RK4 tableau
 RK4_B = (1 / 6, 1 / 3, 1 / 3, 1 / 6)
 MAX_ACCELERATION = 1e10  # MuJoCo's mjMAXVAL for qacc
+SCALAR_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+
+
+def _compile_xml(xml: str) -> mujoco.MjModel:
+    """Compile MJCF text. The oracle makes every actuator a fixed-gain one anyway, so `user` actuators are compiled as
+    fixed ones (compiling a `user` actuator while the muscle callbacks are installed fails; model.compile_model)."""
+    spec = mujoco.MjSpec.from_string(xml)
+    for act in spec.actuators:
+        act.gaintype, act.biastype = mujoco.mjtGain.mjGAIN_FIXED, mujoco.mjtBias.mjBIAS_NONE
+    return spec.compile()
 
 
 class BatchSimulator:
-    """The muscle-driven arm for a batch: angle q (rad), velocity v (rad/s), activations (N, n) of `law`'s muscles."""
+    """The muscle-driven arm for a batch of `num` copies.
 
-    def __init__(self, law, num: int, nthread: int = 2, path=MODEL_PATH):
-        m = compile_model(path)
+    State: positions qpos (N, nq) and velocities qvel (N, nv) of the whole model (`frame_state`); for a one-joint
+    model (v1) also the angle q (N,) and velocity v (N,) (`frame`). Activations (N, n) of `law`'s muscles; `law=None`:
+    no muscle force (every actuator control 0), the passive dynamics only.
+
+    path: an MJCF file (default v1's shoulder), or xml: MJCF text (e.g. `mobl.model_xml(locked_plane_deg=0,
+    dynamics=True)`). prepare: called with the simulator's own compiled model before anything else touches it (e.g.
+    `mobl.harden_couplings`); it modifies the model in place. joint: the joint whose angle and velocity the law sees
+    (default v1's `abduction`; needed only with a law). warmstart: carry MuJoCo's `qacc_warmstart` per copy in
+    `self.warmstart` (N, nv) as `mj_step` does (default: iff the model has equality constraints); zero a copy's row
+    where its episode restarts (`mj_resetData` does).
+    """
+
+    def __init__(self, law, num: int, nthread: int = 2, path: Path | str = MODEL_PATH, *, xml: str | None = None,
+                 prepare=None, joint: str | None = None, warmstart: bool | None = None):
+        source = "the MJCF text" if xml is not None else str(path)
+        m = compile_model(path) if xml is None else _compile_xml(xml)
+        if prepare is not None:
+            prepare(m)
         self.h = float(m.opt.timestep)
         if m.opt.integrator != mujoco.mjtIntegrator.mjINT_RK4:
-            raise ValueError(f"{path}: the batched simulator reproduces RK4; the model uses {m.opt.integrator}")
+            raise ValueError(f"{source}: the batched simulator reproduces RK4; the model uses {m.opt.integrator}")
+        for j in range(m.njnt):
+            if int(m.jnt_type[j]) not in SCALAR_JOINTS:
+                kind = mujoco.mjtJoint(m.jnt_type[j]).name.removeprefix("mjJNT_").lower()
+                raise ValueError(f"{source}: joint {m.joint(j).name or j!r} is a {kind} joint; the batched simulator "
+                                 "integrates qpos like qvel and supports hinge and slide joints only")
+        if m.nq != m.nv:  # cannot happen with scalar joints only; the RK4 below relies on it
+            raise ValueError(f"{source}: nq = {m.nq} != nv = {m.nv}")
+        self.nq = self.nv = m.nq
         names = [m.actuator(i).name for i in range(m.nu)]
-        self.columns = np.array([names.index(x) for x in law.muscles])  # actuator of each law column
+        if law is None:
+            self.columns = np.zeros(0, dtype=np.int64)
+        else:
+            missing = [x for x in law.muscles if x not in names]
+            if missing:
+                raise ValueError(f"{source}: no actuator(s) {missing} for the law's muscles; the model has {names}")
+            self.columns = np.array([names.index(x) for x in law.muscles])  # actuator of each law column
+        joints = [m.joint(j).name for j in range(m.njnt)]
+        joint = joint if joint is not None else (JOINT if JOINT in joints else None)
+        if joint is not None and joint not in joints:
+            raise ValueError(f"{source}: no joint {joint!r}; the model has {joints}")
+        if law is not None and joint is None:
+            raise ValueError(f"{source}: the law needs a joint angle; name the joint (joint=...), one of {joints}")
+        self.joint = joint
+        # column of the law's angle in qpos / qvel (None without a joint)
+        self.qadr = None if joint is None else int(m.joint(joint).qposadr[0])
+        self.dadr = None if joint is None else int(m.joint(joint).dofadr[0])
         # the acceleration oracle: muscle forces as plain controls, one explicit Euler step (damping explicit too)
         m.actuator_gaintype[:] = mujoco.mjtGain.mjGAIN_FIXED
         m.actuator_gainprm[:] = 0.0
@@ -42,12 +105,14 @@ class BatchSimulator:
         self.steps_per_frame = int(round(0.1 / self.h))
         spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
         nstate = mujoco.mj_stateSize(m, spec)
-        jnt = m.joint(JOINT)
         d = mujoco.MjData(m)
         probe = np.zeros(nstate)
-        d.qpos[jnt.qposadr[0]], d.qvel[jnt.dofadr[0]] = 7.0, 11.0
+        # markers: where qpos and qvel sit in the state vector (each contiguous there)
+        d.qpos[:], d.qvel[:] = 1e6 + np.arange(m.nq), 2e6 + np.arange(m.nv)
         mujoco.mj_getState(m, d, probe, spec)
-        self._iq, self._iv = int(np.flatnonzero(probe == 7.0)[0]), int(np.flatnonzero(probe == 11.0)[0])
+        iq, iv = int(np.flatnonzero(probe == 1e6)[0]), int(np.flatnonzero(probe == 2e6)[0])
+        assert (probe[iq:iq + m.nq] == d.qpos).all() and (probe[iv:iv + m.nv] == d.qvel).all()
+        self._iq, self._iv = slice(iq, iq + m.nq), slice(iv, iv + m.nv)
         mujoco.mj_resetData(m, d)
         base = np.zeros(nstate)
         mujoco.mj_getState(m, d, base, spec)
@@ -55,6 +120,8 @@ class BatchSimulator:
         self._ctrl = np.zeros((num, 1, m.nu))
         self._out = np.zeros((num, 1, nstate))
         self._sens = np.zeros((num, 1, m.nsensordata))
+        self.carry_warmstart = bool(m.neq) if warmstart is None else bool(warmstart)
+        self.warmstart = np.zeros((num, m.nv)) if self.carry_warmstart else None
         self._datas = [mujoco.MjData(m) for _ in range(nthread)]
         self._models = [m] * num  # skip_checks=True wants one entry per copy
         self._rollout = rollout.Rollout(nthread=nthread)
@@ -62,41 +129,64 @@ class BatchSimulator:
     def close(self) -> None:
         self._rollout.close()
 
-    def acceleration(self, q: np.ndarray, v: np.ndarray, act: np.ndarray) -> np.ndarray:
-        """Joint acceleration (N,) at states (q, v) with the muscle forces of activations `act`.
+    def acceleration(self, qpos: np.ndarray, qvel: np.ndarray, act) -> np.ndarray:
+        """Joint accelerations (N, nv) at states (qpos, qvel) with the muscle forces of activations `act`.
 
         Where MuJoCo finds the acceleration unstable it resets that copy; the velocity change is then meaningless and
         `self.bad` flags the copy (the single env sees the same event as a MuJoCo warning: a crash)."""
-        self._ctrl[:, 0, self.columns] = -self.law.force(q, v, act)  # muscles pull
-        self._state[:, self._iq] = q
-        self._state[:, self._iv] = v
+        if self.law is not None:
+            self._ctrl[:, 0, self.columns] = -self.law.force(qpos[:, self.qadr], qvel[:, self.dadr], act)  # pull
+        self._state[:, self._iq] = qpos
+        self._state[:, self._iv] = qvel
         self._rollout.rollout(self._models, self._datas, self._state, self._ctrl, nstep=1, skip_checks=True,
-                              state=self._out, sensordata=self._sens)
-        acc = (self._out[:, 0, self._iv] - v) / self.h
-        self.bad |= ~np.isfinite(acc) | (np.abs(acc) > MAX_ACCELERATION)
+                              initial_warmstart=self.warmstart, state=self._out, sensordata=self._sens)
+        acc = (self._out[:, 0, self._iv] - qvel) / self.h
+        self.bad |= (~np.isfinite(acc) | (np.abs(acc) > MAX_ACCELERATION)).any(axis=1)
         return acc
 
-    def step(self, q: np.ndarray, v: np.ndarray, act: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """One RK4 step of every copy, with MuJoCo's tableau and summation order."""
+    def step(self, qpos: np.ndarray, qvel: np.ndarray, act) -> tuple[np.ndarray, np.ndarray]:
+        """One RK4 step of every copy, with MuJoCo's tableau and summation order (hinges: qpos integrates like
+        qvel)."""
         h = self.h
-        fq, fv = [v], [self.acceleration(q, v, act)]
+        fq, fv = [qvel], [self.acceleration(qpos, qvel, act)]
         for row in RK4_A:
-            dq, dv = np.zeros_like(q), np.zeros_like(v)
+            dq, dv = np.zeros_like(qpos), np.zeros_like(qvel)
             for a, kq, kv in zip(row, fq, fv):
                 dq += kq * a
                 dv += kv * a
-            qi, vi = q + dq * h, v + dv * h
+            qi, vi = qpos + dq * h, qvel + dv * h
             fq.append(vi)
             fv.append(self.acceleration(qi, vi, act))
-        dq, dv = np.zeros_like(q), np.zeros_like(v)
+        if self.carry_warmstart:  # mj_step's next warmstart: this step's last-stage acceleration
+            self.warmstart[:] = fv[-1]
+            self.warmstart[~np.isfinite(fv[-1]).all(axis=1)] = 0.0  # a copy MuJoCo reset (flagged bad)
+        dq, dv = np.zeros_like(qpos), np.zeros_like(qvel)
         for b, kq, kv in zip(RK4_B, fq, fv):
             dq += kq * b
             dv += kv * b
-        return q + dq * h, v + dv * h
+        return qpos + dq * h, qvel + dv * h
 
-    def frame(self, q: np.ndarray, v: np.ndarray, act: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Advance every copy by one 0.1 s frame at constant activations: (q, v, failed)."""
-        self.bad = np.zeros(len(q), dtype=bool)
+    def frame_state(self, qpos: np.ndarray, qvel: np.ndarray, act=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Advance every copy by one 0.1 s frame at constant activations: (qpos (N, nq), qvel (N, nv), failed (N,)).
+        `act` is ignored without a law."""
+        qpos = np.asarray(qpos, dtype=np.float64)
+        qvel = np.asarray(qvel, dtype=np.float64)
+        if qpos.shape != (self.num, self.nq) or qvel.shape != (self.num, self.nv):
+            raise ValueError(f"qpos {qpos.shape} and qvel {qvel.shape}: expected ({self.num}, {self.nq}) and "
+                             f"({self.num}, {self.nv})")
+        self.bad = np.zeros(self.num, dtype=bool)
         for _ in range(self.steps_per_frame):
-            q, v = self.step(q, v, act)
-        return q, v, self.bad
+            qpos, qvel = self.step(qpos, qvel, act)
+        return qpos, qvel, self.bad
+
+    def frame(self, q: np.ndarray, v: np.ndarray, act=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`frame_state`; for a one-joint model (v1) q and v may also be the angles and velocities (N,), and then
+        (N,) come back: (q, v, failed)."""
+        q, v = np.asarray(q), np.asarray(v)
+        if q.ndim == 1 and v.ndim == 1:
+            if self.nq != 1:
+                raise ValueError(f"angles q {q.shape}: the model has {self.nq} joints; give qpos (N, {self.nq}) "
+                                 f"and qvel (N, {self.nv}), or use frame_state")
+            qpos, qvel, bad = self.frame_state(q[:, None], v[:, None], act)
+            return qpos[:, 0], qvel[:, 0], bad
+        return self.frame_state(q, v, act)
