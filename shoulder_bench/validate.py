@@ -2,8 +2,8 @@
 and the literature targets of the model-v2 issue (docs/validation.md); exit status 1 when any target is missed.
 
 The default model is v1 (models/shoulder.xml, the tasks' model). `--model models/shoulder_v2.xml` validates the v2
-kinematic model's geometry instead (shoulder_bench.validate_v2): every moment-arm target in both candidate task
-planes, its force targets "not yet".
+kinematic model instead (shoulder_bench.validate_v2): every moment-arm target in both candidate task planes, its
+force targets from a static rigid-tendon Hill estimate (shoulder_bench.statics_v2) until the FEM tables replace it.
 
 Moment arms come from MuJoCo (the tendon Jacobian, `model.tendon_geometry`; r = -dL/dq, + elevates, as in the
 references); rest posture, passive torque, peak isometric torques, capacity and reach from the tabled force law.
@@ -258,15 +258,31 @@ def _moment_arm_targets(view, refs, arms, fine, cond) -> list[dict]:
     return out + [target(*row, note) for row in zip(ids, texts, passed, measured, bounds)]
 
 
+def force_targets(rest_deg: float, passive_deg, passive_Nm, peaks: dict, cond: str, note: str = "",
+                  peak_note: str = "") -> list[dict]:
+    """The rest-angle, passive-torque and peak-torque targets from their quantities (v1: the tabled force law; v2:
+    `statics_v2`'s static estimate, one plane). peaks[muscle]: peak_Nm, at_deg, ref_peak_mm, ref_peak_deg, F0_N,
+    expected_Nm, ratio (None where the reference has no moment arm: no target)."""
+    passive_deg, passive_Nm = np.asarray(passive_deg), np.asarray(passive_Nm)
+    k = int(np.argmax(np.abs(passive_Nm)))
+    out = [target("rest_angle", REST_TEXT, abs(rest_deg) <= REST_MAX_DEG + TOL, f"{rest_deg:.1f} deg", REST_BOUND,
+                  note),
+           target("passive_torque", PASSIVE_TEXT, abs(passive_Nm[k]) < PASSIVE_MAX_NM,
+                  f"{passive_Nm[k]:+.2f} N m at {passive_deg[k]:g} deg", PASSIVE_BOUND, note)]
+    for m, p in peaks.items():
+        ratio = p["ratio"]
+        out.append(target(f"peak_torque/{m}", peak_text(m, p["follows"], cond),
+                          ratio is not None and abs(ratio - 1.0) <= PEAK_TORQUE_TOL + TOL,
+                          f"{p['peak_Nm']:+.2f} N m at {p['at_deg']:g} deg; {p['F0_N']:g} N x {p['ref_peak_mm']:+.1f} "
+                          f"mm (at {p['ref_peak_deg']:g} deg) = {p['expected_Nm']:+.2f} N m; ratio "
+                          + ("-" if ratio is None else f"{ratio:.2f}"), PEAK_BOUND, peak_note or note))
+    return out
+
+
 def _force_targets(view, refs, law, cond) -> tuple[list[dict], dict]:
-    out = []
     rest = relaxed_rest_angle(law)
-    out.append(target("rest_angle", REST_TEXT, abs(rest) <= REST_MAX_DEG + TOL, f"{rest:.1f} deg", REST_BOUND))
     pdeg = np.arange(0.0, PASSIVE_MAX_DEG + 1e-9, 0.5)
     passive = passive_torque(law, pdeg)
-    k = int(np.argmax(np.abs(passive)))
-    out.append(target("passive_torque", PASSIVE_TEXT, abs(passive[k]) < PASSIVE_MAX_NM,
-                      f"{passive[k]:+.2f} N m at {pdeg[k]:g} deg", PASSIVE_BOUND))
     iso = isometric_torque(law, FINE)
     peaks = {}
     girdle_note = "" if view.girdle == "coupled" else f"model girdle {view.girdle}"
@@ -278,11 +294,7 @@ def _force_targets(view, refs, law, cond) -> tuple[list[dict], dict]:
         ratio = float(iso[k, i] / expected) if expected else None  # a reference without moment arm: no target
         peaks[m] = {"peak_Nm": float(iso[k, i]), "at_deg": float(FINE[k]), "follows": ref, "ref_peak_mm": r_peak,
                     "ref_peak_deg": at, "F0_N": anatomy.F0[m], "expected_Nm": expected, "ratio": ratio}
-        out.append(target(f"peak_torque/{m}", peak_text(m, ref, cond),
-                          ratio is not None and abs(ratio - 1.0) <= PEAK_TORQUE_TOL + TOL,
-                          f"{iso[k, i]:+.2f} N m at {FINE[k]:g} deg; {anatomy.F0[m]:g} N x {r_peak:+.1f} mm "
-                          f"(at {at:g} deg) = {expected:+.2f} N m; ratio " + ("-" if ratio is None else f"{ratio:.2f}"),
-                          PEAK_BOUND, girdle_note))
+    out = force_targets(rest, pdeg, passive, peaks, cond, peak_note=girdle_note)
     return out, {"relaxed_rest_deg": rest, "passive_angle_deg": pdeg.tolist(),
                  "passive_torque_Nm": passive.round(4).tolist(), "peak_isometric_torque": peaks}
 
@@ -373,7 +385,7 @@ def add_parser(subparsers):
                        "posture, passive and peak torques; overlay figures; exit status 1 when a target is missed")
     v.add_argument("--model", type=Path, default=MODEL_PATH, metavar="PATH",
                    help="the MJCF to validate: v1 (default, models/shoulder.xml, the tasks' model) or the v2 "
-                   "kinematic model (models/shoulder_v2.xml: geometry only, its force targets not yet)")
+                   "kinematic model (models/shoulder_v2.xml: geometry, forces by a static estimate)")
     v.add_argument("--json", action="store_true", help="print one JSON object instead of the tables")
     v.add_argument("--out", type=Path, default=Path("."), help="folder for the figures validate_<muscle>.png "
                    "(v2: validate_v2_<muscle>.png; default: the current folder; created if missing)")

@@ -114,7 +114,8 @@ def _two_plane_table(say, ma, rows, label_width=22):
 def _print_v2(r, say):
     mod, ma = r["model"], r["moment_arms"]
     short, girdles = references.SHORT, references.GIRDLES
-    say(f"shoulder-bench model validate: {mod['path']} (model v2, kinematic: geometry only, not used by the tasks)")
+    say(f"shoulder-bench model validate: {mod['path']} (model v2, kinematic, not used by the tasks; forces by a static "
+        "estimate)")
     say(f"model: {mod['description']}")
     _say_references(r, say)
     say("v2 muscles: " + "; ".join(f"{m} = " + " + ".join(f"{w:.3f} {t}" for t, w in ws.items())
@@ -150,11 +151,7 @@ def _print_v2(r, say):
     say("envelope references: " + "; ".join(
         f"{m} " + ", ".join(short[x] for x in references.REFERENCES if x not in references.ENVELOPE_EXCLUDED.get(m, {}))
         for m in anatomy.MUSCLES) + " (the v2 targets use this envelope; w/o MyoArm is shown only)")
-    say("\nQuantities")
-    for what in ("relaxed rest angle (activations 0)", f"net passive torque over 0-{PASSIVE_MAX_DEG:g} deg",
-                 "peak isometric torque (a = 1 minus a = 0, 0-120 deg)", "ssp/dmi isometric torque ratio",
-                 f"ssp static reach with the {r['humerus_mass_kg']:.3g} kg humerus"):
-        say(f"{what}: {r['not_yet']}")
+    _say_v2_quantities(r, say)
     n_pass = sum(t["passed"] for t in r["targets"])
     tp = mod["task_plane_deg"]
     chosen = ("tasks' plane not chosen yet (validate.TASK_PLANE_V2 = None): the targets in it fail; both candidate "
@@ -162,8 +159,31 @@ def _print_v2(r, say):
     say(f"\nTargets: {n_pass} of {len(r['targets'])} pass; {chosen}")
     say("moment-arm targets met per candidate plane (girdle coupled): " + ", ".join(
         f"{PLANE_NAMES[int(p)]} {c['passed']} of {c['of']}" for p, c in r["per_plane_passed"].items())
-        + "; the force targets not yet")
+        + "; force targets (static estimate): " + ", ".join(
+        f"{PLANE_NAMES[int(p)]} {c['force_passed']} of {c['force_of']}" for p, c in r["per_plane_passed"].items()))
     _say_targets(r, say)
+
+
+def _say_v2_quantities(r, say):
+    """The force quantities of the static estimate, each candidate plane."""
+    st = r["statics"]
+    say(f"\nQuantities ({st['method']}; rotation 0, girdle coupled)")
+    planes = [(f"{PLANE_NAMES[int(p)]} ({p} deg)", s) for p, s in st["planes"].items()]
+
+    def line(what, fmt):
+        say(f"{what}: " + "; ".join(f"{name} {fmt(s)}" for name, s in planes))
+
+    line("relaxed rest angle (activations 0)", lambda s: f"{s['relaxed_rest_deg']:.1f} deg")
+    line(f"net passive torque over 0-{PASSIVE_MAX_DEG:g} deg", lambda s: (
+        f"{s['passive_torque_Nm'][0]:+.2f} N m at 0 deg, largest |torque| {s['passive_max_Nm']:+.2f} N m at "
+        f"{s['passive_max_at_deg']:g} deg"))
+    line("peak isometric torque (a = 1 minus a = 0, 0-120 deg)", lambda s: ", ".join(
+        f"{m} {p['peak_Nm']:+.2f} N m at {p['at_deg']:g} deg" for m, p in s["peak_isometric_torque"].items()))
+    line("ssp/dmi isometric torque ratio", lambda s: ", ".join(
+        f"{a} deg {v:.2f}" for a, v in s["capacity_ratio_ssp_dmi"].items()))
+    line(f"ssp static reach with the {r['humerus_mass_kg']:.3g} kg humerus", lambda s: (
+        "none" if s["ssp_static_reach_deg"] is None else f"{s['ssp_static_reach_deg']:.1f} deg"))
+    line("fibre stretch at 0 deg", lambda s: ", ".join(f"{t} {v:.3f}" for t, v in s["lam_at_0"].items()))
 
 
 def _draw_references(ax, m: str, x, curves: dict) -> None:

@@ -14,7 +14,10 @@ ones; the report adds the envelope without MyoArm (`envelope_without_myoarm`, sh
 
 The tasks' plane of elevation for v2 is `validate.TASK_PLANE_V2` (None: not chosen). Every target in the tasks'
 plane is evaluated in both candidate planes and shown per plane; it passes only in the chosen plane, so with None it
-fails with "tasks' plane not chosen yet". v2 has no actuators or force tables: the force targets fail "not yet".
+fails with "tasks' plane not chosen yet". v2 has no actuators or force tables yet: the force targets (rest angle,
+passive torque, peak isometric torques) and the capacity ratio and ssp's reach come from `shoulder_bench.statics_v2`,
+a static rigid-tendon Hill estimate with the parent's parameters and the Blemker curves (statics_v2.LABEL), per
+candidate plane, combined like the moment-arm targets; the FEM tables replace it later.
 """
 from __future__ import annotations
 
@@ -25,7 +28,6 @@ from shoulder_bench import validate as V
 from shoulder_bench.kinematics import moment_arms
 from shoulder_bench.model import compile_model
 
-NOT_YET = "not yet: the v2 model has no muscle forces (actuators/tables come in a later step)"
 TAUTOLOGY = ("v2's geometry is MyoArm's, reconstructed exactly (docs/model_v2.md; only ld differs: coupled about "
              "shoulder_elv by the clavicle move, elsewhere by <= 1 mm RMSE through the parent's F0 split): its MyoArm "
              "comparison is close to a tautology, and so are the envelope and RMSE targets wherever MyoArm is among "
@@ -120,24 +122,19 @@ def combine(per_plane: dict[int, list[dict]], task_plane: int | None) -> list[di
     return out
 
 
-def _force_targets(refs, cond: str) -> list[dict]:
-    """v1's force targets, each failed "not yet"; the peak-torque targets note the expected torque per plane."""
-    out = [V.target("rest_angle", V.REST_TEXT, False, NOT_YET, V.REST_BOUND),
-           V.target("passive_torque", V.PASSIVE_TEXT, False, NOT_YET, V.PASSIVE_BOUND)]
-    for m in anatomy.MUSCLES:
-        ref = references.FOLLOWS[m][0]
-        expected = []
-        for name, plane in references.PLANES.items():
-            r_peak, at = refs.peak(ref, m, "shoulder_elv", plane, "coupled", V.ELEVATIONS)
-            expected.append(f"{name} {anatomy.F0[m]:g} N x {r_peak:+.1f} mm (at {at:g} deg) = "
-                            f"{anatomy.F0[m] * r_peak / 1000.0:+.2f} N m")
-        out.append(V.target(f"peak_torque/{m}", V.peak_text(m, ref, cond), False, NOT_YET, V.PEAK_BOUND,
-                            "expected: " + "; ".join(expected)))
-    return out
+def _force_targets(summary: dict, cond: str) -> list[dict]:
+    """v1's force targets on one plane's static estimate (`statics_v2.summary`), each noted with its method."""
+    from shoulder_bench.statics_v2 import LABEL
+
+    return V.force_targets(summary["relaxed_rest_deg"], summary["passive_angle_deg"], summary["passive_torque_Nm"],
+                           summary["peak_isometric_torque"], cond, note=LABEL)
 
 
 def evaluate(view: V.ModelView, shown: str, path) -> dict:
-    """The v2 report (the same keys as v1's; the force quantities None, see `not_yet`)."""
+    """The v2 report (the same keys as v1's; the force quantities are the tasks' plane's, None while it is not
+    chosen; every plane's under `statics`)."""
+    from shoulder_bench import statics_v2
+
     model = compile_model(path)
     refs = references.load()
     grid, bundles = curves(model, refs, V.ELEVATIONS)
@@ -146,10 +143,13 @@ def evaluate(view: V.ModelView, shown: str, path) -> dict:
     plane_text = "tasks'" if tp is None else V.PLANE_NAMES[tp]
     cond = f"{plane_text} plane, rotation 0, girdle coupled, 0-120 deg"
     results = {p: _plane_targets(refs, grid, fine, p, cond) for p in PLANES}
+    statics = {p: statics_v2.summary(statics_v2.analyse(p, path), refs) for p in PLANES}
+    forces = {p: _force_targets(statics[p], cond) for p in PLANES}
     arm_targets = combine({p: r[0] for p, r in results.items()}, tp)
     sign_targets = combine({p: r[1] for p, r in results.items()}, tp)
-    targets = arm_targets + _force_targets(refs, cond) + sign_targets
-    per_plane = {str(p): {"passed": sum(t["passed"] for t in r[0] + r[1]), "of": len(r[0] + r[1])}
+    targets = arm_targets + combine(forces, tp) + sign_targets
+    per_plane = {str(p): {"passed": sum(t["passed"] for t in r[0] + r[1]), "of": len(r[0] + r[1]),
+                          "force_passed": sum(t["passed"] for t in forces[p]), "force_of": len(forces[p])}
                  for p, r in results.items()}
     return {
         "model": {"path": shown, "version": "2", "kinematic_only": True, "muscle_model": None,
@@ -159,8 +159,8 @@ def evaluate(view: V.ModelView, shown: str, path) -> dict:
         "follows": {m: {"reference": r, "reason": why} for m, (r, why) in references.FOLLOWS.items()},
         "envelope_excluded": references.ENVELOPE_EXCLUDED,
         "moment_arms": moment_arm_section(refs, grid, fine, bundles),
-        **dict.fromkeys(FORCE_QUANTITIES),
-        "not_yet": NOT_YET,
+        **{k: None if tp is None else statics[tp][k] for k in FORCE_QUANTITIES},
+        "statics": {"method": statics_v2.LABEL, "planes": {str(p): v for p, v in statics.items()}},
         "humerus_mass_kg": float(model.body("humerus").mass[0]),
         "per_plane_passed": per_plane,
         "targets": targets,

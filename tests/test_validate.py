@@ -204,20 +204,33 @@ def test_v2_moment_arms_are_kinematics_moment_arms(v2_report):
     assert set(row["envelope_without_myoarm"]["references"]) == {"mobl_opensim"}
 
 
-def test_v2_force_targets_are_not_yet_and_fail(v2_report):
+def test_v2_force_targets_are_the_static_estimate_per_plane(v2_report):
+    from shoulder_bench import statics_v2
+
     by_id = {t["id"]: t for t in v2_report["targets"]}
     force = ["rest_angle", "passive_torque"] + [f"peak_torque/{m}" for m in anatomy.MUSCLES]
-    for tid in force:
-        assert not by_id[tid]["passed"] and by_id[tid]["measured"] == validate_v2.NOT_YET, tid
-    assert validate_v2.NOT_YET.startswith("not yet: the v2 model has no muscle forces")
-    for key in validate_v2.FORCE_QUANTITIES:
+    refs = references.load()
+    for p in (0, 30):
+        s = statics_v2.summary(statics_v2.analyse(p), refs)
+        rows = validate.force_targets(s["relaxed_rest_deg"], s["passive_angle_deg"], s["passive_torque_Nm"],
+                    s["peak_isometric_torque"], "c")
+        for tid, row in zip(force, rows):
+            got = by_id[tid]["planes"][str(p)]
+            assert (got["passed"], got["measured"]) == (row["passed"], row["measured"]), (tid, p)
+            assert "not yet" not in got["measured"]
+        assert v2_report["statics"]["planes"][str(p)]["relaxed_rest_deg"] == s["relaxed_rest_deg"]
+    for tid in force:  # the tasks' plane is not chosen: failed, both planes shown, the method named
+        t = by_id[tid]
+        assert not t["passed"] and t["measured"] == validate.NO_TASK_PLANE and set(t["planes"]) == {"0", "30"}
+        assert t["note"] == statics_v2.LABEL
+    for key in validate_v2.FORCE_QUANTITIES:  # the tasks' plane's quantities: none while it is not chosen
         assert v2_report[key] is None, key
 
 
 def test_v2_targets_in_both_planes_fail_until_the_tasks_plane_is_chosen(v2_report):
     assert validate.TASK_PLANE_V2 is None and v2_report["model"]["task_plane_deg"] is None
     planned = [t for t in v2_report["targets"] if "planes" in t]
-    assert len(planned) == 16  # 8 envelope/RMSE, 4 early abduction, 4 signs
+    assert len(planned) == 22  # 8 envelope/RMSE, 4 early abduction, 6 force, 4 signs
     for t in planned:
         assert set(t["planes"]) == {"0", "30"} and not t["passed"] and t["measured"] == validate.NO_TASK_PLANE
     by_id = {t["id"]: t for t in v2_report["targets"]}
@@ -251,8 +264,9 @@ def test_v2_command_end_to_end(tmp_path, capsys, v2_report):
     assert rc == 1 and sum(x.startswith("[FAIL]") for x in lines) == len(report["targets"])
     assert "close to a tautology" in out.out and "tasks' plane not chosen yet" in out.out
     per_plane = [sum(x.startswith(f"       {n} ({p} deg) ") for x in lines) for n, p in references.PLANES.items()]
-    assert per_plane == [16, 16]  # each target in the tasks' plane, shown in both candidates
-    assert f"relaxed rest angle (activations 0): {validate_v2.NOT_YET}" in lines
+    assert per_plane == [22, 22]  # each target in the tasks' plane, shown in both candidates
+    assert "not yet" not in out.out
+    assert any(x.startswith("relaxed rest angle (activations 0): coronal (0 deg) ") for x in lines)
 
 
 def test_command_refuses_an_unknown_or_missing_model(tmp_path, capsys):
