@@ -15,15 +15,12 @@ Only the standard library is used (csv; gzip for a `.gz` file), plus a rotation 
 from __future__ import annotations
 
 import csv
-import gzip
-import io
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from shoulder_bench.model import MODELS_DIR
+from shoulder_bench.references import REFERENCE_DIR, open_table
 
-REFERENCE_DIR = MODELS_DIR / "reference"
 SOURCE = "myoarm"  # MyoArm's rows (MoBL-ARMS converted to MuJoCo; its spheres/cylinders stand in for ellipsoids)
 CHAIN = ("thorax", "clavicle", "clavphant", "scapula", "scapphant", "humphant", "humphant1", "humerus")
 # our tendon -> MyoArm muscle. LAT1-3 stay three bundles (ld1-3): each has its own thorax origin and scapular via
@@ -81,16 +78,7 @@ class Inertial:
 
 
 def _rows(name: str, folder: Path | None = None) -> list[dict]:
-    path = Path(folder or REFERENCE_DIR) / name
-    if not path.exists() and path.with_name(name + ".gz").exists():
-        path = path.with_name(name + ".gz")
-    if not path.exists():
-        raise FileNotFoundError(f"reference file {path} is missing (models/reference/, copied from "
-                                f"../shared/reference/moment_arms)")
-    raw = path.read_bytes()
-    if path.suffix == ".gz":
-        raw = gzip.decompress(raw)
-    return list(csv.DictReader(io.StringIO(raw.decode("utf-8"))))
+    return list(csv.DictReader(open_table(Path(folder or REFERENCE_DIR) / name)))
 
 
 def _vec(row: dict, *keys: str) -> tuple:

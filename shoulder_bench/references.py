@@ -133,7 +133,11 @@ class ReferenceTables:
         return float(r[k]), float(np.asarray(elevations, dtype=float)[k])
 
 
-def _open_text(path: Path):
+def open_table(path: Path) -> io.StringIO:
+    """A reference table's text (`path`, or `path.gz` beside it, decompressed); FileNotFoundError naming it."""
+    path = Path(path)
+    if not path.exists() and path.with_name(path.name + ".gz").exists():
+        path = path.with_name(path.name + ".gz")
     if not path.exists():
         raise FileNotFoundError(f"reference table {path} is missing; it ships with the package (models/reference/, "
                                 f"copied from ../shared/reference/moment_arms): reinstall or restore it")
@@ -145,7 +149,7 @@ def _open_text(path: Path):
 
 def _read_moment_arms(path: Path, model: str) -> dict:
     values = {}
-    reader = csv.DictReader(_open_text(path))
+    reader = csv.DictReader(open_table(path))
     if tuple(reader.fieldnames or ()) != COLUMNS:
         raise ValueError(f"reference table {path}: columns {reader.fieldnames}, expected {list(COLUMNS)}")
     for line, row in enumerate(reader, start=2):
@@ -162,10 +166,10 @@ def _read_moment_arms(path: Path, model: str) -> dict:
 
 def _read_f0(folder: Path) -> dict:
     f0 = {}
-    for row in csv.DictReader(_open_text(folder / PARAMETERS)):
+    for row in csv.DictReader(open_table(folder / PARAMETERS)):
         if row["record"] == "max_isometric_force":
             f0[(row["model"], row["muscle"])] = float(row["value"])
-    for row in csv.DictReader(_open_text(folder / PARENT_F0)):
+    for row in csv.DictReader(open_table(folder / PARENT_F0)):
         f0[(row["model"], row["muscle"])] = float(row["max_isometric_force_N"])
     missing = [(m, b) for mus in MUSCLE_MAP.values() for m, bs in mus.items() for b in bs if (m, b) not in f0]
     if missing:
