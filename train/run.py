@@ -63,10 +63,7 @@ def check_same_run(recorded: dict, new: dict, where: Path) -> None:
 
 
 def recorded_config(folder: Path) -> dict | None:
-    """The config a run folder records (its checkpoint's if it has one, else config.json), or None."""
-    ckpt = folder / CHECKPOINT
-    if ckpt.exists():
-        return load_checkpoint(folder)["config"]
+    """The config.json a run folder records, or None."""
     try:
         return json.loads((folder / "config.json").read_text())
     except FileNotFoundError:
@@ -133,10 +130,11 @@ class Run:
             raise ValueError(f"{self.dir} holds a finished run; choose another --out (or delete it) to train again")
         if has_ckpt and not resume:
             raise ValueError(f"{self.dir} holds a checkpoint; pass --resume to continue it, or choose another --out")
-        recorded = recorded_config(self.dir) if resume else None
+        self.checkpoint = load_checkpoint(self.dir) if resume and has_ckpt else None
+        # what the run records: its checkpoint's config (the state to continue), else config.json
+        recorded = self.checkpoint["config"] if self.checkpoint else recorded_config(self.dir) if resume else None
         if recorded is not None:
             check_same_run(recorded, self.config, self.dir)
-        self.checkpoint = load_checkpoint(self.dir) if resume and has_ckpt else None
         self.fresh = self.checkpoint is None
         if self.fresh:  # no checkpoint to continue: start clean, never mixing with a killed attempt's events
             shutil.rmtree(self.dir / "tb", ignore_errors=True)
