@@ -218,3 +218,18 @@ def test_lock_refuses_what_it_cannot_bake():
         mobl._lock(frames, joints, {"acromioclavicular_r3": 0.0})
     with pytest.raises(ValueError, match="only on a phantom body"):  # trailing, but the scapula carries sites
         mobl._lock(frames, joints, {"acromioclavicular_r1": 0.0})
+
+
+def test_actuators_option_adds_one_per_tendon_and_changes_nothing_else():
+    assert mobl.model_xml(actuators=False) == mobl.model_xml()
+    base = mobl.model_xml(locked_plane_deg=0.0, dynamics=True)
+    xml = mobl.model_xml(locked_plane_deg=0.0, dynamics=True, actuators=True)
+    spec = mujoco.MjSpec.from_string(xml)
+    for act in spec.actuators:  # user gains cannot be compiled while a callback may be installed (model.py)
+        act.gaintype, act.biastype = mujoco.mjtGain.mjGAIN_FIXED, mujoco.mjtBias.mjBIAS_NONE
+    m, m0 = spec.compile(), mujoco.MjModel.from_xml_string(base)
+    assert m.nu == m.ntendon == 6 and m0.nu == 0
+    assert [m.actuator(k).name for k in range(m.nu)] == list(D.MUSCLES)
+    np.testing.assert_array_equal(m.actuator_trnid[:, 0], np.arange(6))
+    assert (m.nq, m.nv, m.neq, m.nbody) == (m0.nq, m0.nv, m0.neq, m0.nbody)
+    np.testing.assert_array_equal(m.tendon_lengthspring, m0.tendon_lengthspring)
