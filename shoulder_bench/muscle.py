@@ -146,8 +146,7 @@ class ForceLaw:
         self._one_state = np.zeros(2)
         self._one_act = np.zeros((1, self._n))
         self._one_out = np.zeros((5, 1, self._n))
-        self._neg_inv_vscale = -1.0 / np.array([VMAX_LOPT_PER_S * anatomy.OPTIMAL_FIBRE_LENGTH[m]
-                                                for m in self.muscles])
+        self._neg_inv_vscale = -1.0 / np.array([VMAX_LOPT_PER_S * _optimal_fibre_length(t) for t in tables])
 
     @classmethod
     def load(cls, muscle_model: str = "fem", muscles=anatomy.MUSCLES, folder: Path | None = None) -> ForceLaw:
@@ -211,6 +210,13 @@ class ForceLaw:
     def torque(self, angle: np.ndarray, velocity: np.ndarray, activation: np.ndarray) -> np.ndarray:
         """(B, n) joint torques (N m, positive elevates), using the tabled moment arms."""
         return self.force(angle, velocity, activation) * self.moment_arm(angle)
+
+
+def _optimal_fibre_length(t: MuscleTable) -> float:
+    """anatomy's l_opt for v1's muscles; for others (v2's tendons ld1-3, ...) the table's `optimal_fibre_length_m`."""
+    if t.muscle in anatomy.OPTIMAL_FIBRE_LENGTH:
+        return anatomy.OPTIMAL_FIBRE_LENGTH[t.muscle]
+    return float(t.meta["optimal_fibre_length_m"])
 
 
 @numba.njit(cache=True, nogil=True)
