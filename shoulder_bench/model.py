@@ -7,7 +7,8 @@ MuJoCo's `mjcb_act_gain` / `mjcb_act_bias` are process-global. Two facts shape t
   changes, so models can be built in several threads at once, also while other threads step theirs.
 - Several models (and copies of them) may live in one process. Each model carries its force law's id in
   `actuator_user[:, 0]` (column 1 is the muscle's column in that law), so the one installed callback finds the law of
-  whatever model it is called for; an unknown id gives zero force rather than an exception inside MuJoCo.
+  whatever model it is called for; an unknown id gives zero force rather than an exception inside MuJoCo. The law
+  sees one joint's angle and velocity, chosen per `attach_law` (v1: abduction, v2: shoulder_elv) and kept with the id.
 
 Per evaluation MuJoCo calls gain then bias for actuator 0, 1, ... in order; the gain call of the first muscle
 evaluates the law for all muscles at once (one compiled kernel call) and the other calls read that result. The
@@ -31,19 +32,20 @@ SCENE_PATH = MODELS_DIR / "scene.xml"
 JOINT = "abduction"
 DEFAULT_MUSCLE_MODEL = "fem"  # tables from the thin-shell FEM (docs/fem.md); "hill" is the alternative
 
-_LAWS: dict[int, object] = {}  # law id -> ForceLaw
+_LAWS: dict[int, tuple] = {}  # law id -> (ForceLaw, name of the joint it sees), one id per attach_law
 _law_ids = itertools.count(1)
 _models: dict[int, _ModelEntry] = {}  # id(MjModel) -> what the callback needs for that model
 _datas: dict[int, _DataEntry] = {}  # id(MjData) -> views and the forces of the current evaluation
 
 
-def compile_model(path: Path | str = MODEL_PATH) -> mujoco.MjModel:
-    """Compile an MJCF file whose actuators may be `user` ones while the muscle callbacks are installed (thread-safe).
+def compile_model(path: Path | str = MODEL_PATH, prepare=None, *, xml: str | None = None) -> mujoco.MjModel:
+    """Compile an MJCF file (`path`) or MJCF text (`xml`) whose actuators may be `user` ones while the muscle
+    callbacks are installed (thread-safe), then call `prepare(model)` if given (e.g. `mobl.harden_couplings`).
 
     The `user` gains and biases are compiled as fixed gain / no bias, so that compiling never calls the callbacks, and
     set back to `user` in the compiled model.
     """
-    spec = mujoco.MjSpec.from_file(str(path))
+    spec = mujoco.MjSpec.from_string(xml) if xml is not None else mujoco.MjSpec.from_file(str(path))
     user_gain, user_bias = [], []
     for k, act in enumerate(spec.actuators):
         if act.gaintype == mujoco.mjtGain.mjGAIN_USER:
@@ -55,7 +57,26 @@ def compile_model(path: Path | str = MODEL_PATH) -> mujoco.MjModel:
     m = spec.compile()
     m.actuator_gaintype[user_gain] = mujoco.mjtGain.mjGAIN_USER
     m.actuator_biastype[user_bias] = mujoco.mjtBias.mjBIAS_USER
+    if prepare is not None:
+        prepare(m)
     return m
+
+
+DEFAULT_JOINTS = (JOINT, "shoulder_elv")  # the law's angle coordinate, first present: v1's abduction, v2's elevation
+
+
+def law_joint(m: mujoco.MjModel, joint: str | None = None) -> str:
+    """The joint whose angle and velocity a force law sees in model `m`: `joint`, or the first of DEFAULT_JOINTS the
+    model has; ValueError naming the model's joints otherwise."""
+    joints = [m.joint(j).name for j in range(m.njnt)]
+    if joint is None:
+        joint = next((j for j in DEFAULT_JOINTS if j in joints), None)
+        if joint is None:
+            raise ValueError(f"the model has none of the law joints {DEFAULT_JOINTS}; name one (joint=...) of "
+                             f"its joints {joints}")
+    elif joint not in joints:
+        raise ValueError(f"the model has no joint {joint!r}; its joints are {joints}")
+    return joint
 
 
 class _ModelEntry:
@@ -63,13 +84,13 @@ class _ModelEntry:
 
     __slots__ = ("ref", "law", "cols", "order", "first", "qadr", "vadr")
 
-    def __init__(self, m: mujoco.MjModel, law):
+    def __init__(self, m: mujoco.MjModel, law, joint: str):
         self.ref = weakref.ref(m)
         self.law = law
         self.cols = [int(c) for c in np.asarray(m.actuator_user)[:, 1]]
         self.order = np.array([self.cols.index(c) for c in range(len(law.muscles))])
         self.first = int(self.order[0])
-        jnt = m.joint(JOINT).id
+        jnt = m.joint(joint).id
         self.qadr, self.vadr = int(m.jnt_qposadr[jnt]), int(m.jnt_dofadr[jnt])
 
 
@@ -87,10 +108,10 @@ def _model_entry(m: mujoco.MjModel) -> _ModelEntry | None:
     if e is not None and e.ref() is m:
         return e
     user = np.asarray(m.actuator_user)
-    law = _LAWS.get(int(user[0, 0])) if m.nu and user.size else None
-    if law is None:
+    attached = _LAWS.get(int(user[0, 0])) if m.nu and user.size else None
+    if attached is None:
         return None
-    e = _models[id(m)] = _ModelEntry(m, law)
+    e = _models[id(m)] = _ModelEntry(m, *attached)
     return e
 
 
@@ -146,14 +167,16 @@ def install_callbacks() -> None:
         mujoco.set_mjcb_act_bias(_bias)
 
 
-def attach_law(m: mujoco.MjModel, law) -> None:
-    """Make the installed callback evaluate `law` for model `m` (and for later copies of it)."""
+def attach_law(m: mujoco.MjModel, law, joint: str | None = None) -> None:
+    """Make the installed callback evaluate `law` for model `m` (and for later copies of it), at the angle and
+    velocity of `joint` (default `law_joint`: "abduction" (v1) if the model has it, else "shoulder_elv" (v2))."""
     names = muscle_names(m)
     unknown = [x for x in law.muscles if x not in names]
     if unknown:
         raise ValueError(f"the model has no actuator(s) {unknown}; it has {names}")
+    joint = law_joint(m, joint)
     law_id = next(_law_ids)
-    _LAWS[law_id] = law
+    _LAWS[law_id] = (law, joint)
     m.actuator_user[:, 0] = law_id
     m.actuator_user[:, 1] = [law.muscles.index(x) if x in law.muscles else -1 for x in names]
     _models.pop(id(m), None)
@@ -162,10 +185,10 @@ def attach_law(m: mujoco.MjModel, law) -> None:
 
 def law_of(m: mujoco.MjModel):
     """The force law the callback evaluates for model `m` (or a copy of it); KeyError if none is attached."""
-    law = _LAWS.get(int(m.actuator_user[0, 0])) if m.nu else None
-    if law is None:
+    attached = _LAWS.get(int(m.actuator_user[0, 0])) if m.nu else None
+    if attached is None:
         raise KeyError("model has no muscle law attached; load it with shoulder_bench.model.load_model")
-    return law
+    return attached[0]
 
 
 def load_model(muscle_model: str = DEFAULT_MUSCLE_MODEL, muscles=None, path: Path | str = MODEL_PATH) -> mujoco.MjModel:

@@ -26,21 +26,12 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from shoulder_bench.model import JOINT, MODEL_PATH, compile_model
+from shoulder_bench.model import DEFAULT_JOINTS, MODEL_PATH, compile_model
 
 RK4_A = ((0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))  # MuJoCo's RK4 tableau
 RK4_B = (1 / 6, 1 / 3, 1 / 3, 1 / 6)
 MAX_ACCELERATION = 1e10  # MuJoCo's mjMAXVAL for qacc
 SCALAR_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
-
-
-def _compile_xml(xml: str) -> mujoco.MjModel:
-    """Compile MJCF text. The oracle makes every actuator a fixed-gain one anyway, so `user` actuators are compiled as
-    fixed ones (compiling a `user` actuator while the muscle callbacks are installed fails; model.compile_model)."""
-    spec = mujoco.MjSpec.from_string(xml)
-    for act in spec.actuators:
-        act.gaintype, act.biastype = mujoco.mjtGain.mjGAIN_FIXED, mujoco.mjtBias.mjBIAS_NONE
-    return spec.compile()
 
 
 class BatchSimulator:
@@ -53,7 +44,8 @@ class BatchSimulator:
     path: an MJCF file (default v1's shoulder), or xml: MJCF text (e.g. `mobl.model_xml(locked_plane_deg=0,
     dynamics=True)`). prepare: called with the simulator's own compiled model before anything else touches it (e.g.
     `mobl.harden_couplings`); it modifies the model in place. joint: the joint whose angle and velocity the law sees
-    (default v1's `abduction`; needed only with a law). warmstart: carry MuJoCo's `qacc_warmstart` per copy in
+    (default as `model.attach_law`: `abduction` (v1) if the model has it, else `shoulder_elv` (v2); needed only
+    with a law). warmstart: carry MuJoCo's `qacc_warmstart` per copy in
     `self.warmstart` (N, nv) as `mj_step` does (default: iff the model has equality constraints); zero a copy's row
     where its episode restarts (`mj_resetData` does).
     """
@@ -61,9 +53,7 @@ class BatchSimulator:
     def __init__(self, law, num: int, nthread: int = 2, path: Path | str = MODEL_PATH, *, xml: str | None = None,
                  prepare=None, joint: str | None = None, warmstart: bool | None = None):
         source = "the MJCF text" if xml is not None else str(path)
-        m = compile_model(path) if xml is None else _compile_xml(xml)
-        if prepare is not None:
-            prepare(m)
+        m = compile_model(path, prepare) if xml is None else compile_model(prepare=prepare, xml=xml)
         self.h = float(m.opt.timestep)
         if m.opt.integrator != mujoco.mjtIntegrator.mjINT_RK4:
             raise ValueError(f"{source}: the batched simulator reproduces RK4; the model uses {m.opt.integrator}")
@@ -84,7 +74,8 @@ class BatchSimulator:
                 raise ValueError(f"{source}: no actuator(s) {missing} for the law's muscles; the model has {names}")
             self.columns = np.array([names.index(x) for x in law.muscles])  # actuator of each law column
         joints = [m.joint(j).name for j in range(m.njnt)]
-        joint = joint if joint is not None else (JOINT if JOINT in joints else None)
+        if joint is None:  # as model.attach_law: v1's abduction, else v2's shoulder_elv
+            joint = next((j for j in DEFAULT_JOINTS if j in joints), None)
         if joint is not None and joint not in joints:
             raise ValueError(f"{source}: no joint {joint!r}; the model has {joints}")
         if law is not None and joint is None:

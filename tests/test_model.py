@@ -165,3 +165,60 @@ def test_building_and_stepping_in_8_threads_at_once():
             t.join()
         assert errors == [] and len(results) == 8
         assert np.allclose(results, expected, rtol=0, atol=1e-9)
+
+
+def test_compile_model_from_text_with_a_prepare_hook():
+    """xml= compiles MJCF text as a file would be (user actuators kept user); prepare runs on the compiled model."""
+    from shoulder_bench import mobl
+
+    xml = mobl.model_xml(locked_plane_deg=0, dynamics=True, actuators=True)
+    seen = []
+    ours = compile_model(xml=xml, prepare=seen.append)
+    assert len(seen) == 1 and seen[0] is ours
+    assert np.all(ours.actuator_gaintype == mujoco.mjtGain.mjGAIN_USER)
+    assert np.all(ours.actuator_biastype == mujoco.mjtBias.mjBIAS_USER)
+    saved = mujoco.get_mjcb_act_gain(), mujoco.get_mjcb_act_bias()
+    mujoco.set_mjcb_act_gain(None)
+    mujoco.set_mjcb_act_bias(None)
+    try:
+        plain = mujoco.MjModel.from_xml_string(xml)
+    finally:
+        mujoco.set_mjcb_act_gain(saved[0])
+        mujoco.set_mjcb_act_bias(saved[1])
+    for name in ("actuator_gaintype", "actuator_biastype", "actuator_user", "actuator_trnid", "eq_data", "qpos0"):
+        assert np.array_equal(getattr(ours, name), getattr(plain, name)), name
+
+
+def _v2_locked():
+    from shoulder_bench import mobl
+
+    xml = mobl.model_xml(locked_plane_deg=0, dynamics=True, actuators=True)
+    return compile_model(xml=xml, prepare=mobl.harden_couplings)
+
+
+def test_the_law_joint_is_chosen_per_model():
+    """v1: abduction; v2 (no abduction): shoulder_elv; the callback reads each model's own joint; a model with
+    neither (or an unknown name) is refused, naming its joints."""
+    from shoulder_bench import hill_v2, model
+
+    v1, v2 = load_model("hill"), _v2_locked()
+    law2 = hill_v2.load_law(0)
+    attach_law(v2, law2)
+    install_callbacks()
+    assert law_of(v2) is law2 and law_of(v1).muscles == anatomy.MUSCLES
+    e2 = model._model_entry(v2)
+    elv = v2.joint("shoulder_elv")
+    assert (e2.qadr, e2.vadr) == (int(elv.qposadr[0]), int(elv.dofadr[0])) and e2.qadr != 0
+    assert (model._model_entry(v1).qadr, model._model_entry(v1).vadr) == (0, 0)
+    d = mujoco.MjData(v2)
+    d.qpos[elv.qposadr[0]] = 0.9
+    d.ctrl[:] = 0.4
+    mujoco.mj_forward(v2, d)
+    gain, bias = law2.gain_bias(np.array([0.9]), np.zeros(1), np.full((1, 6), 0.4))
+    np.testing.assert_allclose(d.actuator_force, -(gain[0] * 0.4 + bias[0]), rtol=1e-12)
+    with pytest.raises(ValueError, match="no joint 'abduction'.*shoulder_elv"):
+        attach_law(v2, law2, joint="abduction")
+    bare = compile_model(xml='<mujoco><worldbody><body><joint name="hinge"/><geom size="0.1" mass="1"/></body>'
+                             '</worldbody><actuator><general name="ssp" joint="hinge"/></actuator></mujoco>')
+    with pytest.raises(ValueError, match=r"none of the law joints.*\['hinge'\]"):
+        attach_law(bare, ForceLaw.load("hill", muscles=("ssp",)))
