@@ -108,9 +108,9 @@ class MuscleTable:
         """The table must have been made for this MJCF: same tendon moment arms at its grid angles."""
         err = np.max(np.abs(moment_arm_m - self.moment_arm_m))
         if err > 1e-6:
-            model = self.meta.get("model", "fem")
+            model, name = self.meta.get("model", "fem"), self.meta.get("model_file", MODEL_NAME)
             raise ValueError(
-                f"muscle table {path} does not match the model {MODEL_NAME}: its tendon moment arms differ by up "
+                f"muscle table {path} does not match the model {name}: its tendon moment arms differ by up "
                 f"to {err * 1000:.3f} mm (the MJCF changed since the table was built); rebuild it with "
                 f"`{REBUILD.get(model, REBUILD['fem'])}`")
 
@@ -149,16 +149,36 @@ class ForceLaw:
         self._neg_inv_vscale = -1.0 / np.array([VMAX_LOPT_PER_S * _optimal_fibre_length(t) for t in tables])
 
     @classmethod
-    def load(cls, muscle_model: str = "fem", muscles=anatomy.MUSCLES, folder: Path | None = None) -> ForceLaw:
+    def load(cls, muscle_model: str = "fem", muscles=anatomy.MUSCLES, folder: Path | None = None,
+             arms=None) -> ForceLaw:
+        """The law of `muscles` from `<folder>/<muscle>_<muscle_model>.npz`, each table checked against the model's
+        moment arms on its angle grid.
+
+        folder: default the shipped v1 tables (then only anatomy.MUSCLES); with a folder any muscle with a table
+        there (v2's tendons). arms: the model's moment arms (m) on the tables' grid, a dict muscle -> (K,) or a
+        callable angle_deg (K,) -> such a dict; default v1's MJCF (`model.moment_arms`)."""
         if muscle_model not in MUSCLE_MODELS:
             raise ValueError(f"unknown muscle_model {muscle_model!r}; choose one of {MUSCLE_MODELS}")
-        unknown = [m for m in muscles if m not in anatomy.MUSCLES]
-        if unknown:
-            raise ValueError(f"unknown muscle(s) {unknown}; choose from {anatomy.MUSCLES}")
-        tables = [MuscleTable.load(table_path(m, muscle_model, folder)) for m in muscles]
-        arms = _model_moment_arms(tables[0].angle_deg)
-        for m, t in zip(muscles, tables):
-            t.check_against_model(arms[m], table_path(m, muscle_model, folder))
+        muscles = tuple(muscles)
+        if folder is None:
+            unknown = [m for m in muscles if m not in anatomy.MUSCLES]
+            if unknown:
+                raise ValueError(f"unknown muscle(s) {unknown}; choose from {anatomy.MUSCLES} (or give the folder "
+                                 "of their tables)")
+        paths = [table_path(m, muscle_model, folder) for m in muscles]
+        tables = [MuscleTable.load(p) for p in paths]
+        for m, t, p in zip(muscles, tables, paths):
+            if t.muscle != m:
+                raise ValueError(f"muscle table {p} is for {t.muscle!r}, not {m!r}")
+        grid = tables[0].angle_deg
+        if arms is None:
+            arms = _model_moment_arms(grid)
+        elif callable(arms):
+            arms = arms(grid)
+        for m, t, p in zip(muscles, tables, paths):
+            if m not in arms:
+                raise ValueError(f"no model moment arm given for {m!r} (arms has {sorted(arms)})")
+            t.check_against_model(np.asarray(arms[m], dtype=float), p)
         return cls(tables)
 
     def _evaluate_all(self, angle, velocity, activation) -> np.ndarray:

@@ -136,3 +136,24 @@ def test_replacing_leaves_the_old_file_and_no_temporary_on_failure(tmp_path):
     with replacing(path) as tmp:
         tmp.write_bytes(b"new")
     assert path.read_bytes() == b"new" and sorted(p.name for p in tmp_path.iterdir()) == ["t.npz"]
+
+
+def test_load_other_muscles_from_a_folder_against_given_arms():
+    """With a folder, muscles outside anatomy (v2's tendons) load; `arms` (dict or callable) replaces v1's MJCF in
+    the moment-arm check; without a folder only v1's names are accepted."""
+    from shoulder_bench import hill_v2
+
+    names = ("ssp", "ld2")
+    tables = {t: MuscleTable.load(table_path(t, "hill", hill_v2.FOLDER)) for t in names}
+    arms = {t: tables[t].moment_arm_m for t in names}
+    law = ForceLaw.load("hill", muscles=names, folder=hill_v2.FOLDER, arms=arms)
+    assert law.muscles == names
+    called = []
+    law2 = ForceLaw.load("hill", muscles=names, folder=hill_v2.FOLDER, arms=lambda g: called.append(g) or arms)
+    assert len(called) == 1 and np.array_equal(called[0], tables["ssp"].angle_deg) and law2.muscles == names
+    with pytest.raises(ValueError, match=r"ld2_hill\.npz does not match the model mobl\.model_xml"):
+        ForceLaw.load("hill", muscles=names, folder=hill_v2.FOLDER, arms=dict(arms, ld2=arms["ld2"] + 1e-4))
+    with pytest.raises(ValueError, match="no model moment arm given for 'ld2'"):
+        ForceLaw.load("hill", muscles=names, folder=hill_v2.FOLDER, arms={"ssp": arms["ssp"]})
+    with pytest.raises(ValueError, match=r"unknown muscle\(s\) \['ld2'\]"):
+        ForceLaw.load("hill", muscles=names)
