@@ -14,7 +14,8 @@ variant's elevation (`mobl.model_xml(locked_plane_deg=plane)`, `shoulder_elv`, g
 
 Why a tendon transmission (`mobl.model_xml(actuators=True)`): MuJoCo applies F ten_J^T to the joints, and ten_J is the
 exact derivative of the path length the fibre length comes from, so along the coupling the generalised force
-S^T ten_J^T F equals the table's F r at every grid pose, to rounding (`applied_vs_table`). Tables from another source
+S^T ten_J^T F equals the table's F r at every grid pose, to rounding (`applied_vs_table`, through the muscle callback
+on the law's joint shoulder_elv). Tables from another source
 (the FEM's) change the data, not the transmission.
 
 ld1-3 are three tables and three actuators: driving them with one "ld" activation is for the tasks' switch-over.
@@ -32,8 +33,8 @@ import numpy as np
 
 from shoulder_bench import anatomy, mobl, references, statics_v2, tendons
 from shoulder_bench.hill import ACTIVATION_GRID, ANGLE_GRID_DEG
-from shoulder_bench.model import MODELS_DIR, attach_law, tendon_jacobian
-from shoulder_bench.muscle import ForceLaw, MuscleTable, replacing, table_path
+from shoulder_bench.model import MODELS_DIR, attach_law, compile_model, install_callbacks, tendon_jacobian
+from shoulder_bench.muscle import ForceLaw, replacing, table_path
 
 FOLDER = MODELS_DIR / "muscles_v2"
 TENDONS = statics_v2.TENDONS  # ssp, isp, dmi, ld1, ld2, ld3
@@ -118,80 +119,63 @@ def build_tables(plane_deg: float | None = None, folder: Path | None = None) -> 
 
 
 def load_law(plane_deg: float | None = None, folder: Path | None = None) -> ForceLaw:
-    """The v2 tables as a `ForceLaw`, checked against the locked variant's moment arms in `plane_deg`.
-
-    Built from `MuscleTable.load` directly: `ForceLaw.load` accepts only anatomy.MUSCLES (v1's four) and checks the
-    arms against v1's MJCF (`muscle._model_moment_arms`)."""
+    """The v2 tables as a `ForceLaw` (`ForceLaw.load` on the v2 folder), checked against the locked variant's
+    coupled moment arms in `plane_deg` (`geometry`) and refused if built for another plane."""
     plane = default_plane() if plane_deg is None else plane_deg
-    paths = [table_path(t, "hill", folder or FOLDER) for t in TENDONS]
-    loaded = [MuscleTable.load(p) for p in paths]
-    _, r = geometry(plane, loaded[0].angle_deg)
-    for k, (t, p) in enumerate(zip(loaded, paths)):
+    fix = f"rebuild with `python -m shoulder_bench.hill_v2 --plane {plane:g}`"
+    try:
+        law = ForceLaw.load("hill", muscles=TENDONS, folder=folder or FOLDER,
+                            arms=lambda grid: dict(zip(TENDONS, geometry(plane, grid)[1].T)))
+    except ValueError as exc:
+        if "does not match the model" not in str(exc):
+            raise
+        raise ValueError(f"{exc} (v2 tables: {fix})") from exc
+    for t in law.tables:
         if t.meta.get("plane_deg") != float(plane):
-            raise ValueError(f"{p} was built for plane {t.meta.get('plane_deg')}, not {plane}; "
-                             f"rebuild with `python -m shoulder_bench.hill_v2 --plane {plane}`")
-        err = float(np.max(np.abs(t.moment_arm_m - r[:, k])))
-        if err > 1e-6:
-            raise ValueError(f"{p}: moment arms differ from the v2 model's by {err * 1000:.4f} mm; rebuild it "
-                             "with `python -m shoulder_bench.hill_v2`")
-    return ForceLaw(loaded)
+            raise ValueError(f"the {t.muscle} table was built for plane {t.meta.get('plane_deg')}, not {plane}; {fix}")
+    return law
 
 
 def compile_actuated(plane_deg: float) -> mujoco.MjModel:
-    """The locked variant with actuators and dynamics settings, compiled as `model.compile_model` does (user
-    actuators compiled as fixed-gain ones, set back to user afterwards), then `mobl.harden_couplings`."""
-    spec = mujoco.MjSpec.from_string(mobl.model_xml(locked_plane_deg=plane_deg, dynamics=True, actuators=True))
-    for act in spec.actuators:
-        act.gaintype, act.biastype = mujoco.mjtGain.mjGAIN_FIXED, mujoco.mjtBias.mjBIAS_NONE
-    m = spec.compile()
-    m.actuator_gaintype[:] = mujoco.mjtGain.mjGAIN_USER
-    m.actuator_biastype[:] = mujoco.mjtBias.mjBIAS_USER
-    return mobl.harden_couplings(m)
+    """The locked variant with actuators and dynamics settings (`model.compile_model`, then `mobl.harden_couplings`)."""
+    xml = mobl.model_xml(locked_plane_deg=plane_deg, dynamics=True, actuators=True)
+    return compile_model(xml=xml, prepare=mobl.harden_couplings)
 
 
 def applied_vs_table(plane_deg: float | None = None, folder: Path | None = None) -> dict[str, dict]:
     """At every grid pose and activation level, the generalised force MuJoCo applies along shoulder_elv (S^T
-    qfrc_actuator, one actuator on at a time) against the table's torque_Nm; per tendon the max error in N m and
-    as % of the muscle's peak |torque_Nm|.
+    qfrc_actuator, qvel 0) against the table's torque_Nm; per tendon the max error in N m and as % of the muscle's
+    peak |torque_Nm|.
 
-    The force is the law's (`ForceLaw.gain_bias` at velocity 0, i.e. what `model._gain`/`_bias` return, negated as
-    they do) put into the actuator as a fixed gain and affine bias, because model.py's callback reads the joint
-    `abduction` (v1's, `model.JOINT`); everything from the actuator force to qfrc_actuator is MuJoCo's."""
+    Through the real callback path: the actuated locked variant (`compile_actuated`), the law attached with
+    `model.attach_law` (joint shoulder_elv) and the callbacks installed, `mj_forward`. One tendon at a time: a law
+    of that tendon's table alone is attached, so the other actuators exert nothing (the callback gives them zero)."""
     plane = default_plane() if plane_deg is None else plane_deg
     law = load_law(plane, folder)
     m = compile_actuated(plane)
-    attach_law(m, law)  # checks the names; fills actuator_user with the law id and each actuator's column
-    cols = [int(c) for c in m.actuator_user[:, 1]]
-    m.actuator_gaintype[:] = mujoco.mjtGain.mjGAIN_FIXED
-    m.actuator_biastype[:] = mujoco.mjtBias.mjBIAS_AFFINE
     d, path = mujoco.MjData(m), _path(plane)
     if path.m.nv != m.nv:
         raise ValueError("the actuated variant's chain differs from statics_v2.LockedPath's")
+    install_callbacks()
     q_adr = int(m.jnt_qposadr[m.joint(statics_v2.GIRDLE_DRIVER).id])
-    err = np.zeros((len(law.tables[0].angle_deg), len(law.levels), m.nu))
-    for i, q in enumerate(np.radians(law.tables[0].angle_deg)):
-        d.qpos[:] = path.pose(q).qpos  # on the coupling manifold, as the builder posed it
-        d.qvel[:] = 0.0
-        assert abs(d.qpos[q_adr] - q) < 1e-12
-        s = coupling_slopes(path, q)
-        for j, a in enumerate(law.levels):
-            gain, bias = law.gain_bias(np.array([q]), np.zeros(1), np.full((1, m.nu), a))
-            for k in range(m.nu):
-                m.actuator_gainprm[:, 0] = 0.0
-                m.actuator_biasprm[:, :3] = 0.0
-                m.actuator_gainprm[k, 0] = -gain[0, cols[k]]
-                m.actuator_biasprm[k, 0] = -bias[0, cols[k]]
-                d.ctrl[:] = a
-                mujoco.mj_forward(m, d)
-                table = law.tables[cols[k]]
-                err[i, j, k] = float(s @ d.qfrc_actuator) - np.interp(a, table.activation, table.torque_Nm[i])
+    grid = np.radians(law.tables[0].angle_deg)
+    poses = [path.pose(q).qpos.copy() for q in grid]  # on the coupling manifold, as the builder posed it
+    slopes = [coupling_slopes(path, q) for q in grid]
     out = {}
-    for k in range(m.nu):
-        t = law.tables[cols[k]]
-        peak = float(np.max(np.abs(t.torque_Nm)))
-        e = float(np.max(np.abs(err[:, :, k])))
-        out[m.actuator(k).name] = {"max_err_Nm": e, "peak_Nm": peak, "max_err_pct_of_peak": 100.0 * e / peak,
-                                   "poses": err.shape[0], "levels": err.shape[1]}
+    for table in law.tables:
+        attach_law(m, ForceLaw([table]), joint=statics_v2.GIRDLE_DRIVER)
+        k = m.actuator(table.muscle).id
+        err = np.zeros((len(grid), len(table.activation)))
+        for i, (qpos, s) in enumerate(zip(poses, slopes)):
+            for j, a in enumerate(table.activation):
+                d.qpos[:], d.qvel[:], d.ctrl[:] = qpos, 0.0, 0.0
+                d.ctrl[k] = a
+                assert abs(d.qpos[q_adr] - grid[i]) < 1e-12
+                mujoco.mj_forward(m, d)
+                err[i, j] = float(s @ d.qfrc_actuator) - table.torque_Nm[i, j]
+        peak, e = float(np.max(np.abs(table.torque_Nm))), float(np.max(np.abs(err)))
+        out[table.muscle] = {"max_err_Nm": e, "peak_Nm": peak, "max_err_pct_of_peak": 100.0 * e / peak,
+                             "poses": err.shape[0], "levels": err.shape[1]}
     return out
 
 

@@ -41,6 +41,7 @@ def test_tables_are_the_statics_law_times_the_coupled_arm(built):
 
 
 def test_applied_torque_equals_table_at_every_grid_pose():
+    """Through model.py's callbacks (law joint shoulder_elv): S^T qfrc_actuator = the table torque."""
     res = hill_v2.applied_vs_table(TASK_PLANE_V2)
     assert set(res) == set(hill_v2.TENDONS)
     for t, r in res.items():
@@ -67,6 +68,23 @@ def test_table_from_another_plane_is_refused(tmp_path):
     hill_v2.build_tables(30, tmp_path)
     with pytest.raises(ValueError, match="plane"):
         hill_v2.load_law(0, tmp_path)
+
+
+def test_table_with_other_arms_is_refused(tmp_path):
+    """load_law checks the arms through ForceLaw.load(arms=...) and names the v2 command."""
+    hill_v2.build_tables(TASK_PLANE_V2, tmp_path)
+    path = table_path("isp", "hill", tmp_path)
+    with np.load(path) as z:
+        data = dict(z)
+    data["moment_arm_m"] = data["moment_arm_m"] + 0.002
+    np.savez(path, **data)
+    with pytest.raises(ValueError, match=r"isp_hill\.npz does not match.*python -m shoulder_bench\.hill_v2"):
+        hill_v2.load_law(TASK_PLANE_V2, tmp_path)
+
+
+def test_law_loads_the_v2_names_in_order():
+    law = hill_v2.load_law(TASK_PLANE_V2)
+    assert law.muscles == hill_v2.TENDONS
 
 
 def test_v1_xml_and_tables_untouched():
