@@ -93,3 +93,37 @@ def test_free_and_ball_joints_are_refused(joint):
            '<geom size="0.1"/></body></worldbody></mujoco>')
     with pytest.raises(ValueError, match=f"joint 'j' is a {joint} joint; .* hinge and slide joints only"):
         BatchSimulator(None, 2, xml=xml)
+
+
+def test_v2_with_the_law_equals_mj_step_through_the_callbacks():
+    """The switch-over's premise: the v2 locked variant with the v2 law, mj_step (RK4) through model.py's callbacks
+    (law joint shoulder_elv) for 1 s at constant activations, equals BatchSimulator.frame_state to rounding."""
+    from shoulder_bench import hill_v2
+    from shoulder_bench.model import attach_law, install_callbacks
+    from shoulder_bench.validate import TASK_PLANE_V2
+
+    law = hill_v2.load_law(TASK_PLANE_V2)
+    xml = mobl.model_xml(locked_plane_deg=TASK_PLANE_V2, dynamics=True, actuators=True)
+    sim = BatchSimulator(law, 2, xml=xml, prepare=mobl.harden_couplings, joint="shoulder_elv")
+    m = hill_v2.compile_actuated(TASK_PLANE_V2)
+    attach_law(m, law)  # default joint: shoulder_elv (the model has no abduction)
+    install_callbacks()
+    ids = [m.actuator(x).id for x in law.muscles]
+    slope = _slope(m)
+    act = np.array([[0.3, 0.1, 0.5, 0.2, 0.2, 0.2], [0.05, 0.6, 0.15, 0.4, 0.0, 0.7]])
+    datas = [mujoco.MjData(m) for _ in act]
+    for d, e, a in zip(datas, np.radians([40.0, 100.0]), act):
+        d.qpos[:] = slope * e
+        d.ctrl[ids] = a
+    qpos, qvel = np.array([d.qpos for d in datas]), np.zeros((2, m.nv))
+    moved = 0.0
+    for _ in range(10):  # 1 s
+        qpos, qvel, bad = sim.frame_state(qpos, qvel, act)
+        for d in datas:
+            mujoco.mj_step(m, d, sim.steps_per_frame)
+        assert not bad.any()
+        np.testing.assert_allclose(qpos, [d.qpos for d in datas], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(qvel, [d.qvel for d in datas], rtol=0, atol=1e-12)  # seen: 9e-16, 1.5e-14
+        moved = max(moved, np.abs(qvel[:, sim.dadr]).max())
+    assert moved > 0.1  # the muscles did move the arm (rad/s), so velocity-dependent forces were exercised
+    sim.close()
