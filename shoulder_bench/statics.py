@@ -51,3 +51,28 @@ def holding_activation(law, angle_deg) -> np.ndarray:
     """Activations (B, n) that hold the arm at rest at `angle_deg` against gravity."""
     a = np.radians(np.atleast_1d(angle_deg).astype(float))
     return distribute(law, a, -gravity_torque(a))
+
+
+def rest_on_grid(deg: np.ndarray, net: np.ndarray) -> float:
+    """Where the arm let go hanging settles, from the net torque (passive + gravity, N m) sampled on the ascending
+    grid `deg`: from 0 deg, in the direction the torque pushes, the first sign change (linear interpolation; a zero
+    with negative slope, a stable rest), or the end of the grid."""
+    i0 = int(np.argmin(np.abs(deg)))
+    if net[i0] == 0.0:
+        return float(deg[i0])
+    sign = 1.0 if net[i0] > 0 else -1.0
+    d, t = (deg[i0:], net[i0:]) if sign > 0 else (deg[i0::-1], -net[i0::-1])
+    k = np.nonzero((t[:-1] > 0) & (t[1:] <= 0))[0]
+    if not len(k):
+        return float(d[-1])
+    k = int(k[0])
+    return float(d[k] + (d[k + 1] - d[k]) * t[k] / (t[k] - t[k + 1]))
+
+
+def reach_on_grid(deg: np.ndarray, capacity: np.ndarray, gravity: np.ndarray, top_deg: float):
+    """How high muscles with torque `capacity` hold the arm against `gravity` (both N m, sampled on the ascending grid
+    `deg`): the highest grid angle in [0, top_deg) up to which every angle from 0 is held; None if not even 0."""
+    sel = (deg >= -1e-9) & (deg < top_deg - 1e-9)
+    held = capacity[sel] >= -gravity[sel]
+    first_not = len(held) if held.all() else int(np.argmin(held))
+    return float(deg[sel][first_not - 1]) if first_not else None

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from shoulder_bench import anatomy, mobl, references, tendons
+from shoulder_bench import anatomy, mobl, references, statics, tendons
 from shoulder_bench.fem.material import f_active, f_passive
 from shoulder_bench.kinematics import GIRDLE_DRIVER, ShoulderPoser, moment_arms
 
@@ -158,30 +158,6 @@ def _analyse(plane_deg: int, path: str | None) -> Statics:
     return Statics(plane_deg, elev, L, r, g, params)
 
 
-def rest_angle(deg: np.ndarray, net: np.ndarray) -> float:
-    """validate.relaxed_rest_angle's rule on a sampled net torque: from 0 deg, in the direction it pushes, the first
-    sign change (linear interpolation; a zero with negative slope, a stable rest), or the end of the grid."""
-    i0 = int(np.argmin(np.abs(deg)))
-    if net[i0] == 0.0:
-        return float(deg[i0])
-    sign = 1.0 if net[i0] > 0 else -1.0
-    d, t = (deg[i0:], net[i0:]) if sign > 0 else (deg[i0::-1], -net[i0::-1])
-    k = np.nonzero((t[:-1] > 0) & (t[1:] <= 0))[0]
-    if not len(k):
-        return float(d[-1])
-    k = int(k[0])
-    return float(d[k] + (d[k + 1] - d[k]) * t[k] / (t[k] - t[k + 1]))
-
-
-def static_reach(deg: np.ndarray, capacity: np.ndarray, gravity: np.ndarray, top_deg: float = RANGE_DEG[1]):
-    """validate.static_reach's rule: the highest grid angle in [0, top) up to which every angle from 0 is held
-    (capacity >= -gravity); None if not even 0."""
-    sel = (deg >= -1e-9) & (deg < top_deg - 1e-9)
-    held = capacity[sel] >= -gravity[sel]
-    first_not = len(held) if held.all() else int(np.argmin(held))
-    return float(deg[sel][first_not - 1]) if first_not else None
-
-
 def summary(st: Statics, refs: references.ReferenceTables) -> dict:
     """The quantities of one plane (JSON-ready)."""
     deg, passive, iso = st.elevation_deg, st.passive(), st.isometric()
@@ -211,14 +187,15 @@ def summary(st: Statics, refs: references.ReferenceTables) -> dict:
     i0 = st.at([0.0])[0]
     lam0 = {t: float(fibres(st.lengths[i0, k], q)[0]) for k, (t, q) in enumerate(zip(TENDONS, st.params))}
     return {"plane_deg": st.plane_deg, "method": LABEL, "elevation_range_deg": list(RANGE_DEG), "step_deg": STEP_DEG,
-            "relaxed_rest_deg": rest_angle(deg, passive + st.gravity),
+            "relaxed_rest_deg": statics.rest_on_grid(deg, passive + st.gravity),
             "passive_angle_deg": pdeg.tolist(), "passive_torque_Nm": np.round(p, 4).tolist(),
             "passive_max_Nm": float(p[k]), "passive_max_at_deg": float(pdeg[k]),
             "gravity_at_0_Nm": float(st.gravity[i0]), "lam_at_0": lam0,
             "peak_isometric_torque": peaks,
             "capacity_ratio_ssp_dmi": {f"{a:g}": float(iso["ssp"][i] / iso["dmi"][i])
                                        for a, i in zip(CAPACITY_DEG, cap)},
-            "ssp_static_reach_deg": static_reach(deg, np.maximum(ssp_on, ssp_off), st.gravity)}
+            "ssp_static_reach_deg": statics.reach_on_grid(deg, np.maximum(ssp_on, ssp_off), st.gravity,
+                                                                RANGE_DEG[1])}
 
 
 def _peak(p: dict) -> str:

@@ -159,9 +159,7 @@ def static_reach(law, step_deg: float = 0.1, top_deg: float = anatomy.JOINT_RANG
     """How high the law's muscles can hold the humerus at rest against gravity: the highest angle (deg, on a
     `step_deg` grid from 0 below `top_deg`) up to which every angle from 0 can be held; None if not even 0."""
     fine = np.radians(np.arange(0.0, top_deg, step_deg))
-    holdable = static_capacity(law, fine) >= -statics.gravity_torque(fine)
-    first_not = len(fine) if holdable.all() else int(np.argmin(holdable))
-    return float(np.degrees(fine[first_not - 1])) if first_not else None
+    return statics.reach_on_grid(np.degrees(fine), static_capacity(law, fine), statics.gravity_torque(fine), top_deg)
 
 
 def passive_torque(law, angle_deg) -> np.ndarray:
@@ -179,17 +177,10 @@ def relaxed_rest_angle(law, step_deg: float = 0.1) -> float:
     def net(deg):
         return passive_torque(law, deg) + statics.gravity_torque(np.radians(deg))
 
-    t0 = float(net(0.0)[0])
-    if t0 == 0.0:
-        return 0.0
-    sign = 1.0 if t0 > 0 else -1.0
+    sign = 1.0 if float(net(0.0)[0]) >= 0 else -1.0  # sample only the side it is pushed to
     deg = np.arange(0.0, (hi if sign > 0 else -lo) + 1e-9, step_deg) * sign
-    t = net(deg) * sign
-    k = np.nonzero((t[:-1] > 0) & (t[1:] <= 0))[0]
-    if not len(k):
-        return float(deg[-1])
-    k = int(k[0])
-    return float(deg[k] + (deg[k + 1] - deg[k]) * t[k] / (t[k] - t[k + 1]))
+    deg = deg if sign > 0 else deg[::-1]  # ascending
+    return statics.rest_on_grid(deg, net(deg))
 
 
 def isometric_torque(law, angle_deg) -> np.ndarray:

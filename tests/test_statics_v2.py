@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from shoulder_bench import anatomy, cli, references, statics_v2, validate
+from shoulder_bench import anatomy, cli, references, statics, statics_v2, validate
 from shoulder_bench.kinematics import ShoulderPoser
 from shoulder_bench.mobl_data import REFERENCE_DIR
 
@@ -109,11 +109,11 @@ def test_rest_angle_is_a_stable_zero_crossing(planes, capsys):
         assert s["passive_torque_Nm"][0] == pytest.approx(st.passive()[st.at([0.0])[0]], abs=1e-4)
     # the rule on known curves: pushed down from 0 to the zero at -5; no zero: the end of the grid
     deg = np.arange(-10, 20.001, 0.1)
-    assert statics_v2.rest_angle(deg, -(deg + 5.0)) == pytest.approx(-5.0)
-    assert statics_v2.rest_angle(deg, np.ones_like(deg)) == pytest.approx(20.0)
+    assert statics.rest_on_grid(deg, -(deg + 5.0)) == pytest.approx(-5.0)
+    assert statics.rest_on_grid(deg, np.ones_like(deg)) == pytest.approx(20.0)
     held = np.where(deg < 7.05, 1.0, -1.0)
-    assert statics_v2.static_reach(deg, held, np.zeros_like(deg)) == pytest.approx(7.0)
-    assert statics_v2.static_reach(deg, -np.ones_like(deg), np.zeros_like(deg)) is None
+    assert statics.reach_on_grid(deg, held, np.zeros_like(deg), 160.0) == pytest.approx(7.0)
+    assert statics.reach_on_grid(deg, -np.ones_like(deg), np.zeros_like(deg), 160.0) is None
     assert statics_v2.main([]) == 0
     out = capsys.readouterr().out
     assert statics_v2.LABEL in out and "relaxed rest angle" in out and "ssp static reach" in out
