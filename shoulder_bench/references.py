@@ -30,7 +30,7 @@ SHORT = {"mobl_arms": "parent", "myoarm": "MyoArm", "mobl_opensim": "OpenSim"}
 FILES = {"mobl_arms": "moment_arms_mobl_arms_parent.csv.gz", "myoarm": "moment_arms_myoarm.csv.gz",
          "mobl_opensim": "moment_arms_mobl_opensim.csv.gz"}
 PARAMETERS = "muscle_parameters.csv"  # MyoArm and OpenSim parameters (the shared folder's file, unchanged)
-PARENT_F0 = "mobl_arms_parent_f0.csv"  # the parent's F0 (MoBL-ARMS, ../shared/reference/shoulder_parameters.md)
+PARENT_MUSCLES = "mobl_arms_parent_muscles.csv"  # the parent's muscle parameters, extracted from its .osim file
 COORDINATES = ("shoulder_elv", "shoulder_rot", "elv_angle")
 DOF_LABELS = {"shoulder_elv": "elevation", "shoulder_rot": "rotation", "elv_angle": "plane"}
 PLANES = {"coronal": 0, "scapular": 30}
@@ -48,7 +48,7 @@ MUSCLE_MAP = {
 
 # The v2 model's tendons (models/shoulder_v2.xml) per muscle of ours, each with the parent's bundle it reconstructs.
 # v2 has no forces yet, so ld's three bundles are combined as the references' LAT1-3 are, weighted by the parent's F0
-# (mobl_arms_parent_f0.csv, the F0s anatomy.F0 uses): `ReferenceTables.v2_weights`.
+# (mobl_arms_parent_muscles.csv; the F0s anatomy.F0 uses): `ReferenceTables.v2_weights`.
 V2_TENDONS = {"ssp": {"ssp": "SUPSP"}, "isp": {"isp": "INFSP"}, "dmi": {"dmi": "DELT2"},
               "ld": {"ld1": "LAT1", "ld2": "LAT2", "ld3": "LAT3"}}
 V2_F0_FROM = "mobl_arms"
@@ -169,8 +169,8 @@ def _read_f0(folder: Path) -> dict:
     for row in csv.DictReader(open_table(folder / PARAMETERS)):
         if row["record"] == "max_isometric_force":
             f0[(row["model"], row["muscle"])] = float(row["value"])
-    for row in csv.DictReader(open_table(folder / PARENT_F0)):
-        f0[(row["model"], row["muscle"])] = float(row["max_isometric_force_N"])
+    for row in csv.DictReader(open_table(folder / PARENT_MUSCLES)):
+        f0[("mobl_arms", row["muscle"])] = float(row["max_isometric_force_N"])
     missing = [(m, b) for mus in MUSCLE_MAP.values() for m, bs in mus.items() for b in bs if (m, b) not in f0]
     if missing:
         raise ValueError(f"reference parameters in {folder} lack F0 for {missing}")

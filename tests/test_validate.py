@@ -192,7 +192,7 @@ def test_v2_moment_arms_are_kinematics_moment_arms(v2_report):
                for m in anatomy.MUSCLES}
         for i, m in enumerate(("ssp", "isp", "dmi")):
             assert got[m] == pytest.approx(want[i], abs=6e-4), (m, coord, plane, elv, girdle)
-        f0 = np.array([290.5, 317.5, 189.0])  # the parent's LAT1-3 (mobl_arms_parent_f0.csv)
+        f0 = np.array([290.5, 317.5, 189.0])  # the parent's LAT1-3 (mobl_arms_parent_muscles.csv)
         assert got["ld"] == pytest.approx(f0 @ want[3:] / f0.sum(), abs=6e-4)
     # the 1-deg curves the early targets and the figures use, off the references' grid
     want = moment_arms(model, ["dmi"], [(0, 37, 0)], "coupled")["shoulder_elv"][0, 0]
