@@ -51,33 +51,16 @@ def default_plane() -> int:
     return int(TASK_PLANE_V2)
 
 
-def coupling_slopes(path: statics_v2.LockedPath, elevation_rad: float) -> np.ndarray:
-    """S (nv,): dqvel/d(shoulder_elv rate) along the couplings (1 on shoulder_elv, each polycoef's derivative)."""
-    m = path.m
-    x = elevation_rad - m.qpos0[path.q]
-    s = np.zeros(m.nv)
-    s[int(m.jnt_dofadr[path.q_joint])] = 1.0
-    for _, dof, c in path.couplings:
-        s[dof] = sum(k * c[k] * x ** (k - 1) for k in range(1, 5))
-    return s
-
-
-def _path(plane_deg: float) -> statics_v2.LockedPath:
-    path = statics_v2.LockedPath(plane_deg)
-    path.q_joint = path.m.joint(statics_v2.GIRDLE_DRIVER).id
-    return path
-
-
 def geometry(plane_deg: float, angle_deg=ANGLE_GRID_DEG) -> tuple[np.ndarray, np.ndarray]:
     """(lengths (K, 6) m, total coupled moment arms r = -ten_J S (K, 6) m) of the locked variant, TENDONS order."""
-    path = _path(plane_deg)
+    path = statics_v2.LockedPath(plane_deg)
     tid = [path.m.tendon(t).id for t in TENDONS]
     L, r = np.zeros((len(angle_deg), len(TENDONS))), np.zeros((len(angle_deg), len(TENDONS)))
     for k, q in enumerate(np.radians(angle_deg)):
         d = path.pose(q)
         mujoco.mj_tendon(path.m, d)
         L[k] = d.ten_length[tid]
-        r[k] = -(tendon_jacobian(path.m, d)[tid] @ coupling_slopes(path, q))
+        r[k] = -(tendon_jacobian(path.m, d)[tid] @ path.slopes(q))
     return L, r
 
 
@@ -153,14 +136,14 @@ def applied_vs_table(plane_deg: float | None = None, folder: Path | None = None)
     plane = default_plane() if plane_deg is None else plane_deg
     law = load_law(plane, folder)
     m = compile_actuated(plane)
-    d, path = mujoco.MjData(m), _path(plane)
+    d, path = mujoco.MjData(m), statics_v2.LockedPath(plane)
     if path.m.nv != m.nv:
         raise ValueError("the actuated variant's chain differs from statics_v2.LockedPath's")
     install_callbacks()
     q_adr = int(m.jnt_qposadr[m.joint(statics_v2.GIRDLE_DRIVER).id])
     grid = np.radians(law.tables[0].angle_deg)
     poses = [path.pose(q).qpos.copy() for q in grid]  # on the coupling manifold, as the builder posed it
-    slopes = [coupling_slopes(path, q) for q in grid]
+    slopes = [path.slopes(q) for q in grid]
     out = {}
     for table in law.tables:
         attach_law(m, ForceLaw([table]), joint=statics_v2.GIRDLE_DRIVER)

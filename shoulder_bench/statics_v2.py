@@ -89,14 +89,20 @@ class LockedPath:
         """World z (m, superior) of the humerus COM."""
         return float(self.pose(elevation_rad).xipos[self.hum, 2])
 
-    def gravity_torque(self, elevation_rad: float) -> float:
-        """-dPE/dq (N m, + elevates) of the humerus alone: -m g (J_com S)_z, S = dqpos/dq along the couplings."""
-        m, d = self.m, self.pose(elevation_rad)
+    def slopes(self, elevation_rad: float) -> np.ndarray:
+        """S (nv,): dqvel / d(shoulder_elv rate) along the couplings (1 on shoulder_elv, each polycoef's derivative)."""
+        m = self.m
         x = elevation_rad - m.qpos0[self.q]
         s = np.zeros(m.nv)
         s[int(m.jnt_dofadr[m.joint(GIRDLE_DRIVER).id])] = 1.0
         for _, dof, c in self.couplings:
             s[dof] = sum(k * c[k] * x ** (k - 1) for k in range(1, 5))
+        return s
+
+    def gravity_torque(self, elevation_rad: float) -> float:
+        """-dPE/dq (N m, + elevates) of the humerus alone: -m g (J_com S)_z, S = dqpos/dq along the couplings."""
+        m, d = self.m, self.pose(elevation_rad)
+        s = self.slopes(elevation_rad)
         jacp = np.zeros((3, m.nv))
         mujoco.mj_jacBodyCom(m, d, jacp, None, self.hum)
         return float(m.body_mass[self.hum] * m.opt.gravity[2] * (jacp[2] @ s))
