@@ -4,20 +4,20 @@ optimisation, under the agents' constraints.
 Each frame: the desired joint acceleration is the target's, corrected by PD feedback on the next-frame target,
   alpha = kv (phi_hat'(t+1) - phi'(t)) + kp (phi_hat(t+1) - phi(t))     (per 0.1 s frame, in rad/s^2)
 the inverse dynamics of the MuJoCo model gives the muscle torque that produces it,
-  tau = M alpha + b phi' - tau_gravity(phi)      (M: the joint-space inertia from MuJoCo, b: the joint damping)
+  tau = M(phi) alpha + b phi' - tau_gravity(phi)   (M: the reduced inertia along the girdle coupling, from MuJoCo;
+                                                    b: the reduced joint damping)
 and `statics.distribute` finds the activations with minimum sum of squares that produce tau at rest, within
 [a(t) - 0.01, a(t) + 0.01] and [0, 1]: the same limits the agents have. The action is the change of activation.
 It is a model-based baseline on the leaderboard and a check that the model is controllable.
 """
 from __future__ import annotations
 
-import mujoco
 import numpy as np
 import torch
 
 from shoulder_bench import protocol, statics
-from shoulder_bench.model import DEFAULT_MUSCLE_MODEL, JOINT, compile_model
-from shoulder_bench.muscle import ForceLaw
+from shoulder_bench.arm import arm
+from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
 from shoulder_bench.tasks import TASKS, _check
 
 
@@ -28,14 +28,9 @@ class ReferenceController:
         muscles, discrete, _ = TASKS[_check(task)]
         if discrete:
             raise ValueError(f"the reference controller acts continuously; use {task.replace('_discrete', '')}")
-        self.law = ForceLaw.load(muscle_model, muscles=muscles)
-        m = compile_model()
-        d = mujoco.MjData(m)
-        mujoco.mj_forward(m, d)
-        full = np.zeros((m.nv, m.nv))
-        mujoco.mj_fullM(m, d, full)
-        self.inertia = float(full[0, 0])  # the only dof: M is a scalar, constant for a hinge
-        self.damping = float(m.dof_damping[m.joint(JOINT).dofadr[0]])
+        self.arm = arm()
+        self.law = self.arm.load_law(muscle_model, muscles)
+        self.damping = self.arm.damping()  # reduced along the coupling (linear couplings: constant)
         self.kp, self.kv = kp, kv
         self.muscle_model = muscle_model
 
@@ -44,7 +39,7 @@ class ReferenceController:
         phi, dphi, target, dtarget = (np.radians(x[:, k]) for k in range(4))
         act = x[:, 4:]
         alpha = self.kv * (dtarget - dphi) + self.kp * (target - phi)
-        tau = self.inertia * alpha + self.damping * dphi - statics.gravity_torque(phi)
+        tau = self.arm.inertia(phi) * alpha + self.damping * dphi - statics.gravity_torque(phi)
         lo = np.clip(act - protocol.ACTION_LIMIT, 0.0, 1.0)
         hi = np.clip(act + protocol.ACTION_LIMIT, 0.0, 1.0)
         new = statics.distribute(self.law, phi, tau, upper=hi, lower=lo)

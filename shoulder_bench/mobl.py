@@ -39,6 +39,7 @@ from shoulder_bench import mobl_data as D
 from shoulder_bench.mjcf import MUSCLE_RGBA, PHYSICS_TIMESTEP
 
 FILENAME = "shoulder_v2.xml"
+TASK_FILENAME = "shoulder_v2_task.xml"  # arm.MODEL_FILE
 THORAX_QUAT = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)  # thorax y (superior) -> world z
 # Placeholder inertial of the girdle and phantom bodies: MuJoCo refuses massless moving bodies, and the reference
 # data has no girdle masses. Not anatomy; 0.1 g puts no measurable load on the slaved joints.
@@ -298,14 +299,26 @@ def _place(seen: dict, inner: dict, item, xml: str) -> None:
     inner[item.body].append(xml)
 
 
-def write_model(models_dir: Path | None = None) -> Path:
-    """Write `shoulder_v2.xml` into `models_dir` (default: the package's models folder)."""
+def task_model_xml() -> str:
+    """The tasks' model (`arm.MODEL_FILE`): the locked 1-DOF variant in the tasks' plane, stepping settings, actuators."""
+    from shoulder_bench.arm import TASK_PLANE_DEG
+
+    return model_xml(locked_plane_deg=TASK_PLANE_DEG, dynamics=True, actuators=True)
+
+
+def write_model(models_dir: Path | None = None) -> list[Path]:
+    """Write `shoulder_v2.xml` (the 3-DOF model) and `shoulder_v2_task.xml` (the tasks' locked variant) into
+    `models_dir` (default: the package's models folder)."""
     from shoulder_bench.model import MODELS_DIR
 
-    path = Path(models_dir or MODELS_DIR) / FILENAME
-    path.write_text(model_xml())
-    return path
+    out = []
+    for name, text in ((FILENAME, model_xml()), (TASK_FILENAME, task_model_xml())):
+        path = Path(models_dir or MODELS_DIR) / name
+        path.write_text(text)
+        out.append(path)
+    return out
 
 
 if __name__ == "__main__":
-    print(write_model())
+    for p in write_model():
+        print(p)

@@ -30,7 +30,7 @@ if not MODELS_DIR.is_dir():  # source checkout: models/ sits beside the package
 MODEL_PATH = MODELS_DIR / "shoulder.xml"
 SCENE_PATH = MODELS_DIR / "scene.xml"
 JOINT = "abduction"
-DEFAULT_MUSCLE_MODEL = "fem"  # tables from the thin-shell FEM (docs/fem.md); "hill" is the alternative
+DEFAULT_MUSCLE_MODEL = "hill"  # tables from the thin-shell FEM (docs/fem.md); "hill" is the alternative
 
 _LAWS: dict[int, tuple] = {}  # law id -> (ForceLaw, name of the joint it sees), one id per attach_law
 _law_ids = itertools.count(1)
@@ -88,8 +88,9 @@ class _ModelEntry:
         self.ref = weakref.ref(m)
         self.law = law
         self.cols = [int(c) for c in np.asarray(m.actuator_user)[:, 1]]
-        self.order = np.array([self.cols.index(c) for c in range(len(law.muscles))])
-        self.first = int(self.order[0])
+        # the actuator whose ctrl holds each muscle's activation (a muscle's actuators all carry it: v2's ld1-3)
+        self.order = np.array([self.cols.index(c) for c in law.first_table])
+        self.first = min(i for i, c in enumerate(self.cols) if c >= 0)
         jnt = m.joint(joint).id
         self.qadr, self.vadr = int(m.jnt_qposadr[jnt]), int(m.jnt_dofadr[jnt])
 
@@ -171,14 +172,14 @@ def attach_law(m: mujoco.MjModel, law, joint: str | None = None) -> None:
     """Make the installed callback evaluate `law` for model `m` (and for later copies of it), at the angle and
     velocity of `joint` (default `law_joint`: "abduction" (v1) if the model has it, else "shoulder_elv" (v2))."""
     names = muscle_names(m)
-    unknown = [x for x in law.muscles if x not in names]
+    unknown = [x for x in law.actuators if x not in names]
     if unknown:
         raise ValueError(f"the model has no actuator(s) {unknown}; it has {names}")
     joint = law_joint(m, joint)
     law_id = next(_law_ids)
     _LAWS[law_id] = (law, joint)
     m.actuator_user[:, 0] = law_id
-    m.actuator_user[:, 1] = [law.muscles.index(x) if x in law.muscles else -1 for x in names]
+    m.actuator_user[:, 1] = [law.actuators.index(x) if x in law.actuators else -1 for x in names]
     _models.pop(id(m), None)
     _current[0] = (None, None, None, None)
 

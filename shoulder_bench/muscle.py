@@ -124,11 +124,27 @@ class ForceLaw:
     The tables are stacked into one array F[angle, activation level, muscle] on the union of the muscles' activation
     levels (exact: each table is piecewise linear in activation and the union contains its knots), so one evaluation
     is a few array operations whatever the number of muscles.
+
+    Muscles and actuators: each table drives one actuator (`actuators`, the tables' names, e.g. v2's tendons ssp, isp,
+    dmi, ld1, ld2, ld3). `groups` (muscle -> its tables, in table order) lets one activation drive several tables (v2's
+    ld = ld1 + ld2 + ld3): activations are per muscle (`muscles`, in `groups` order); forces, gains, moment arms are
+    per actuator; `torque` is per muscle (the sum of its tables). Without groups every table is its own muscle.
     """
 
-    def __init__(self, tables: list[MuscleTable]):
+    def __init__(self, tables: list[MuscleTable], groups: dict[str, tuple[str, ...]] | None = None):
         self.tables = tables
-        self.muscles = tuple(t.muscle for t in tables)
+        self.actuators = tuple(t.muscle for t in tables)
+        groups = {a: (a,) for a in self.actuators} if groups is None else {g: tuple(v) for g, v in groups.items()}
+        flat = [a for v in groups.values() for a in v]
+        if sorted(flat) != sorted(self.actuators) or len(set(flat)) != len(flat):
+            raise ValueError(f"muscle groups {groups} must name each table {self.actuators} exactly once")
+        self.groups = groups
+        self.muscles = tuple(groups)
+        self._expand = np.array([next(k for k, v in enumerate(groups.values()) if a in v) for a in self.actuators])
+        self._sum = np.zeros((len(tables), len(groups)))  # per-actuator -> per-muscle sums
+        self._sum[np.arange(len(tables)), self._expand] = 1.0
+        self.first_table = [self.actuators.index(v[0]) for v in groups.values()]  # where each muscle's ctrl is read
+        self._grouped = len(groups) != len(tables)
         grid = tables[0].angle_deg
         for t in tables:
             if t.angle_deg.shape != grid.shape or not np.allclose(t.angle_deg, grid, rtol=0.0, atol=1e-9):
@@ -144,19 +160,20 @@ class ForceLaw:
         self._inv_da = 1.0 / np.radians(grid[1] - grid[0])
         self._arm = np.ascontiguousarray(np.stack([t.moment_arm_m for t in tables], axis=1))  # (K, n)
         self._one_state = np.zeros(2)
-        self._one_act = np.zeros((1, self._n))
+        self._one_act = np.zeros((1, self._n))  # per actuator (activations expanded from the muscles')
         self._one_out = np.zeros((5, 1, self._n))
         self._neg_inv_vscale = -1.0 / np.array([VMAX_LOPT_PER_S * _optimal_fibre_length(t) for t in tables])
 
     @classmethod
     def load(cls, muscle_model: str = "fem", muscles=anatomy.MUSCLES, folder: Path | None = None,
-             arms=None) -> ForceLaw:
+             arms=None, groups: dict | None = None) -> ForceLaw:
         """The law of `muscles` from `<folder>/<muscle>_<muscle_model>.npz`, each table checked against the model's
         moment arms on its angle grid.
 
         folder: default the shipped v1 tables (then only anatomy.MUSCLES); with a folder any muscle with a table
         there (v2's tendons). arms: the model's moment arms (m) on the tables' grid, a dict muscle -> (K,) or a
-        callable angle_deg (K,) -> such a dict; default v1's MJCF (`model.moment_arms`)."""
+        callable angle_deg (K,) -> such a dict; default v1's MJCF (`model.moment_arms`). groups: as `ForceLaw`
+        (then `muscles` are the tables to load, in actuator order)."""
         if muscle_model not in MUSCLE_MODELS:
             raise ValueError(f"unknown muscle_model {muscle_model!r}; choose one of {MUSCLE_MODELS}")
         muscles = tuple(muscles)
@@ -179,13 +196,13 @@ class ForceLaw:
             if m not in arms:
                 raise ValueError(f"no model moment arm given for {m!r} (arms has {sorted(arms)})")
             t.check_against_model(np.asarray(arms[m], dtype=float), p)
-        return cls(tables)
+        return cls(tables, groups)
 
     def _evaluate_all(self, angle, velocity, activation) -> np.ndarray:
         """(5, B, n): active force, active per unit activation, passive force, force-velocity factor, gain."""
         angle = np.ascontiguousarray(angle, dtype=np.float64)
         velocity = np.ascontiguousarray(velocity, dtype=np.float64)
-        activation = np.ascontiguousarray(activation, dtype=np.float64)
+        activation = np.ascontiguousarray(np.asarray(activation, dtype=np.float64)[:, self._expand])
         out = np.empty((5,) + activation.shape)
         _kernel(self._flat, self._arm, self.levels, self._a0, self._inv_da, self._neg_inv_vscale,
                 angle, velocity, activation, out)
@@ -197,10 +214,11 @@ class ForceLaw:
         return out[0], out[1], out[2], out[3]
 
     def gain_bias_one(self, angle: float, velocity: float, activation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The callback's entry: one state; returns (gain, bias), each (n,), views of a reused buffer."""
+        """The callback's entry: one state, activations per muscle; returns (gain, bias) per actuator, views of a
+        reused buffer."""
         self._one_state[0] = angle
         self._one_state[1] = velocity
-        self._one_act[0] = activation
+        self._one_act[0] = np.asarray(activation)[self._expand]
         out = self._one_out
         _kernel(self._flat, self._arm, self.levels, self._a0, self._inv_da, self._neg_inv_vscale,
                 self._one_state[:1], self._one_state[1:], self._one_act, out)
@@ -215,10 +233,11 @@ class ForceLaw:
 
     def force_velocity(self, angle: np.ndarray, velocity: np.ndarray) -> np.ndarray:
         """(B, n) force-velocity factor from the joint angular velocity (rad/s) through the moment arms."""
-        return self._evaluate(angle, velocity, np.zeros((len(angle), self._n)))[3]
+        return self._evaluate(angle, velocity, np.zeros((len(angle), len(self.muscles))))[3]
 
     def force(self, angle: np.ndarray, velocity: np.ndarray, activation: np.ndarray) -> np.ndarray:
-        """(B, n) tendon forces (N, pulling) for angles (B,) rad, velocities (B,) rad/s, activations (B, n)."""
+        """(B, actuators) tendon forces (N, pulling) for angles (B,) rad, velocities (B,) rad/s, activations
+        (B, muscles)."""
         active, _, passive, fv = self._evaluate(angle, velocity, activation)
         return active * fv + passive
 
@@ -228,8 +247,10 @@ class ForceLaw:
         return out[4], out[2]
 
     def torque(self, angle: np.ndarray, velocity: np.ndarray, activation: np.ndarray) -> np.ndarray:
-        """(B, n) joint torques (N m, positive elevates), using the tabled moment arms."""
-        return self.force(angle, velocity, activation) * self.moment_arm(angle)
+        """(B, muscles) joint torques (N m, positive elevates), using the tabled moment arms; a muscle's is the sum of
+        its tables'."""
+        per_actuator = self.force(angle, velocity, activation) * self.moment_arm(angle)
+        return per_actuator @ self._sum if self._grouped else per_actuator
 
 
 def _optimal_fibre_length(t: MuscleTable) -> float:

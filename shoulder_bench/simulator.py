@@ -69,10 +69,10 @@ class BatchSimulator:
         if law is None:
             self.columns = np.zeros(0, dtype=np.int64)
         else:
-            missing = [x for x in law.muscles if x not in names]
+            missing = [x for x in law.actuators if x not in names]
             if missing:
                 raise ValueError(f"{source}: no actuator(s) {missing} for the law's muscles; the model has {names}")
-            self.columns = np.array([names.index(x) for x in law.muscles])  # actuator of each law column
+            self.columns = np.array([names.index(x) for x in law.actuators])  # actuator of each law column
         joints = [m.joint(j).name for j in range(m.njnt)]
         if joint is None:  # as model.attach_law: v1's abduction, else v2's shoulder_elv
             joint = next((j for j in DEFAULT_JOINTS if j in joints), None)

@@ -6,15 +6,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from shoulder_bench import anatomy
-
-GRAVITY = 9.81
+GRAVITY = 9.81  # m/s^2 (the models' gravity)
 
 
 def gravity_torque(angle_rad: np.ndarray) -> np.ndarray:
-    """Joint torque of gravity on the humerus (N m, positive elevates): it pulls the arm down."""
-    com = np.linalg.norm(anatomy.HUMERUS_COM)
-    return -anatomy.HUMERUS_MASS * GRAVITY * com * np.sin(angle_rad)
+    """Joint torque of gravity on the tasks' arm (N m, positive elevates) at elevations (rad): it pulls the arm down
+    (`arm.Arm.gravity_torque`, along the coupled path)."""
+    from shoulder_bench.arm import arm
+
+    return arm().gravity_torque(angle_rad)
 
 
 def distribute(law, angle_rad: np.ndarray, torque: np.ndarray, upper=1.0, lower=0.0, iters: int = 60) -> np.ndarray:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from shoulder_bench.anatomy import JOINT_RANGE_DEG
+from shoulder_bench.arm import RANGE_DEG as JOINT_RANGE_DEG
 
 FRAME_S = 0.1
 SEGMENT_S = 5.0

@@ -10,11 +10,10 @@ import torch
 from rsl_rl.env import VecEnv as _RslVecEnv
 from tensordict import TensorDict
 
-from shoulder_bench import protocol, statics
+from shoulder_bench import arm as arm_, protocol, statics
 from shoulder_bench import trajectory as targets
-from shoulder_bench.anatomy import JOINT_RANGE_DEG
+from shoulder_bench.mobl import harden_couplings
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
-from shoulder_bench.muscle import ForceLaw
 from shoulder_bench.simulator import BatchSimulator
 from shoulder_bench.tasks import TASKS, _check
 from shoulder_bench.tasks import options as options_check
@@ -42,8 +41,10 @@ class VecEnv(_RslVecEnv):
         self.muscles, self.discrete, self.n = tuple(muscles), discrete, len(muscles)
         self.num_actions = self.n
         self.cfg = {"task": name, "muscle_model": muscle_model, **options}
-        self.law = ForceLaw.load(muscle_model, muscles=self.muscles)
-        self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread)
+        self.arm = arm_.arm()
+        self.law = self.arm.load_law(muscle_model, self.muscles)
+        self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread, path=arm_.MODEL_FILE,
+                                  prepare=harden_couplings)
         self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
         split_frames = int(round(targets.SPLITS[self.task.split]["duration_s"] / protocol.FRAME_S))
         self.episode_frames = np.array([split_frames if t is None else t.frames for t in self.fixed])
@@ -52,7 +53,7 @@ class VecEnv(_RslVecEnv):
         self.targets = np.zeros((self.num_envs, n_frames + 1))
         self.target_vel = np.zeros_like(self.targets)
         self.frames = np.zeros(self.num_envs, dtype=np.int64)
-        self.q, self.v = np.zeros(self.num_envs), np.zeros(self.num_envs)
+        self.qpos, self.qvel = np.zeros((self.num_envs, self.sim.nq)), np.zeros((self.num_envs, self.sim.nv))
         self.act = np.zeros((self.num_envs, self.n))
         self.episode_length_buf = torch.zeros(self.num_envs, dtype=torch.long, device=self.device)
         self._return = np.zeros(self.num_envs)
@@ -70,13 +71,25 @@ class VecEnv(_RslVecEnv):
             self.target_vel[i, :len(tr.angle_deg)] = tr.velocity_deg_s
             self.target_vel[i, len(tr.angle_deg):] = 0.0
         start = self.targets[idx, 0]
-        self.q[idx] = np.radians(start)
-        self.v[idx] = 0.0
+        self.qpos[idx] = self.arm.qpos(np.radians(start))
+        self.qvel[idx] = 0.0
+        if self.sim.carry_warmstart:
+            self.sim.warmstart[idx] = 0.0  # as mj_resetData
         self.act[idx] = statics.holding_activation(self.law, start) if self.task.init == "hold" else 0.0
         self.frames[idx] = 0
         self._return[idx] = 0.0
         self._abs_err[idx] = 0.0
         self.episode_length_buf[torch.as_tensor(idx, device=self.device)] = 0
+
+    @property
+    def q(self) -> np.ndarray:
+        """(N,) elevation angles (rad)."""
+        return self.qpos[:, self.sim.qadr]
+
+    @property
+    def v(self) -> np.ndarray:
+        """(N,) elevation velocities (rad/s)."""
+        return self.qvel[:, self.sim.dadr]
 
     def observation_array(self) -> np.ndarray:
         """(N, 4 + n) float64 observations in protocol.OBSERVATION_KEYS order (the TensorDict holds float32 casts)."""
@@ -102,13 +115,14 @@ class VecEnv(_RslVecEnv):
         a = actions.detach().cpu().numpy() if torch.is_tensor(actions) else np.asarray(actions)
         applied, sent = protocol.to_delta(a, self.n, self.discrete, batch=self.num_envs)  # raises before any change
         self.act = np.clip(self.act + applied, 0.0, 1.0)
-        q, v, bad = self.sim.frame(self.q, self.v, self.act)
-        self.q, self.v = q, v
+        self.qpos, self.qvel, bad = self.sim.frame_state(self.qpos, self.qvel, self.act)
+        q, v = self.q, self.v
         self.frames += 1
         angle = np.degrees(q)
         rows = np.arange(self.num_envs)
-        lo, hi = JOINT_RANGE_DEG
-        crashed = bad | ~np.isfinite(q) | ~np.isfinite(v) | (np.abs(q) > MAX_ABS) | (np.abs(v) > MAX_ABS)
+        lo, hi = arm_.RANGE_DEG
+        crashed = bad | ~np.isfinite(self.qpos).all(axis=1) | ~np.isfinite(self.qvel).all(axis=1)
+        crashed |= (np.abs(self.qpos) > MAX_ABS).any(axis=1) | (np.abs(self.qvel) > MAX_ABS).any(axis=1)
         crashed |= (angle < lo - VALID_MARGIN_DEG) | (angle > hi + VALID_MARGIN_DEG)
         target_now = self.targets[rows, self.frames]
         reward = protocol.reward(angle, target_now, sent, self.task.alpha, self.task.omega_max,
@@ -139,14 +153,16 @@ class VecEnv(_RslVecEnv):
                 torch.as_tensor(done, dtype=torch.long, device=self.device), extras)
 
     # --- checkpoints --------------------------------------------------------------------------------------------------
-    _STATE = ("targets", "target_vel", "frames", "q", "v", "act", "_return", "_abs_err")
+    _STATE = ("targets", "target_vel", "frames", "qpos", "qvel", "act", "_return", "_abs_err")
 
     def state_dict(self) -> dict:
-        """Everything that decides the copies' future: physics state, activations, targets, episode progress and
-        every copy's target RNG, so a restored env continues exactly as this one would."""
+        """Everything that decides the copies' future: physics state (with the constraint solver's warmstart),
+        activations, targets, episode progress and every copy's target RNG, so a restored env continues exactly as
+        this one would."""
+        warm = None if self.sim.warmstart is None else self.sim.warmstart.copy()
         return {"num_envs": self.num_envs, "name": self.name, "rngs": [r.bit_generator.state for r in self.rngs],
                 "episode_length_buf": self.episode_length_buf.clone(), "finished": list(self._finished),
-                **{key: getattr(self, key).copy() for key in self._STATE}}
+                "warmstart": warm, **{key: getattr(self, key).copy() for key in self._STATE}}
 
     def load_state_dict(self, state: dict) -> None:
         if (state["name"], state["num_envs"]) != (self.name, self.num_envs):
@@ -154,8 +170,13 @@ class VecEnv(_RslVecEnv):
                              f"{self.num_envs} copies of {self.name}")
         for rng, saved in zip(self.rngs, state["rngs"]):
             rng.bit_generator.state = saved
+        missing = [k for k in self._STATE if k not in state]
+        if missing:
+            raise ValueError(f"env state lacks {missing}: it was saved by another version of the model")
         for key in self._STATE:
             setattr(self, key, np.array(state[key], copy=True))
+        if self.sim.warmstart is not None and state.get("warmstart") is not None:
+            self.sim.warmstart[:] = state["warmstart"]
         self.episode_length_buf = state["episode_length_buf"].clone().to(self.device)
         self._finished = list(state["finished"])
 

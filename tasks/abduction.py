@@ -16,32 +16,56 @@ from dm_control.rl import control
 from dm_control.rl.control import PhysicsError
 from dm_env import specs
 
-from shoulder_bench import protocol, statics, trajectory
-from shoulder_bench.anatomy import JOINT_RANGE_DEG
-from shoulder_bench.model import DEFAULT_MUSCLE_MODEL, SCENE_PATH, attach_law, compile_model, install_callbacks, law_of
+from shoulder_bench import arm as arm_, protocol, statics, trajectory
+from shoulder_bench.model import DEFAULT_MUSCLE_MODEL, attach_law, install_callbacks, law_of
 from shoulder_bench.tasks import options as opt
 
-VALID_MARGIN_DEG = protocol.VALID_MARGIN_DEG  # beyond the joint limits by more than this = the simulation has failed
+VALID_MARGIN_DEG = arm_.VALID_MARGIN_DEG  # beyond the joint range by more than this = the simulation has failed
 INITS = ("hold", "zero")  # start at rest on the target with the holding activations, or with none
 
 
 class Physics(_Physics):
-    """The shoulder with named accessors (degrees at this surface, radians inside MuJoCo)."""
+    """The shoulder (the locked v2 arm, `shoulder_bench.arm`) with named accessors (degrees at this surface, radians
+    inside MuJoCo). The angle is the thoracohumeral elevation `shoulder_elv`; the girdle joints follow it."""
 
     crashed = False  # set when MuJoCo reported an instability during the last step
     _failed = False
 
+    def _adr(self) -> tuple[int, int]:
+        adr = self.__dict__.get("_elevation_adr")
+        if adr is None:
+            jnt = self.model.name2id(arm_.JOINT, "joint")
+            adr = self.__dict__["_elevation_adr"] = (int(self.model.jnt_qposadr[jnt]), int(self.model.jnt_dofadr[jnt]))
+        return adr
+
     def angle_deg(self) -> float:
-        return float(np.degrees(self.data.qpos[0]))  # the abduction hinge is the model's only joint
+        return float(np.degrees(self.data.qpos[self._adr()[0]]))
 
     def angular_velocity_deg(self) -> float:
-        return float(np.degrees(self.data.qvel[0]))
+        return float(np.degrees(self.data.qvel[self._adr()[1]]))
 
     def activations(self, muscles) -> np.ndarray:
+        """Activation of each muscle (the ctrl of its first actuator; all its actuators carry the same)."""
         return self.data.ctrl[self.actuator_ids(muscles)]
 
     def actuator_ids(self, muscles) -> list[int]:
-        return [self.model.name2id(m, "actuator") for m in muscles]
+        """The first actuator of each muscle."""
+        return [self.model.name2id(arm_.ACTUATORS[m][0], "actuator") for m in muscles]
+
+    def set_activations(self, muscles, values) -> None:
+        """Write each muscle's activation into all its actuators."""
+        maps = self.__dict__.setdefault("_ctrl_maps", {})
+        key = tuple(muscles)
+        if key not in maps:
+            pairs = [(self.model.name2id(a, "actuator"), k) for k, m in enumerate(key) for a in arm_.ACTUATORS[m]]
+            maps[key] = (np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs]))
+        ids, src = maps[key]
+        self.data.ctrl[ids] = np.asarray(values, dtype=float)[src]
+
+    def set_angle(self, angle_deg: float) -> None:
+        """Pose the arm at rest at `angle_deg` elevation, the girdle on its coupling."""
+        self.data.qpos[:] = arm_.arm().qpos(np.radians(angle_deg))[0]
+        self.data.qvel[:] = 0.0
 
     def step(self, nstep: int = 1) -> None:
         """Step; a MuJoCo instability marks the physics as crashed instead of raising inside a training loop."""
@@ -55,18 +79,19 @@ class Physics(_Physics):
         return self._failed
 
     def check_failure(self) -> bool:
-        """Non-finite state, a MuJoCo instability, or the arm more than VALID_MARGIN_DEG past the joint limits."""
-        q, v = float(self.data.qpos[0]), float(self.data.qvel[0])
-        lo, hi = np.radians(JOINT_RANGE_DEG[0] - VALID_MARGIN_DEG), np.radians(JOINT_RANGE_DEG[1] + VALID_MARGIN_DEG)
-        self._failed = bool(self.crashed or not (math.isfinite(q) and math.isfinite(v)) or not lo <= q <= hi)
+        """Non-finite state, a MuJoCo instability, or the arm more than VALID_MARGIN_DEG past the joint range."""
+        qa, va = self._adr()
+        q, v = float(self.data.qpos[qa]), float(self.data.qvel[va])
+        lo, hi = (np.radians(x) for x in (arm_.RANGE_DEG[0] - VALID_MARGIN_DEG, arm_.RANGE_DEG[1] + VALID_MARGIN_DEG))
+        finite = bool(np.isfinite(self.data.qpos).all() and np.isfinite(self.data.qvel).all())
+        self._failed = bool(self.crashed or not (finite and math.isfinite(q) and math.isfinite(v)) or not lo <= q <= hi)
         return self._failed
 
 
 def make_physics(muscles, muscle_model: str) -> Physics:
-    from shoulder_bench.muscle import ForceLaw
-
-    law = ForceLaw.load(muscle_model, muscles=muscles)  # checks muscle_model before the (slower) compile
-    model = compile_model(SCENE_PATH)
+    the_arm = arm_.arm()
+    law = the_arm.load_law(muscle_model, muscles)  # checks muscle_model before the (slower) compile
+    model = arm_.compile_arm()
     attach_law(model, law)
     install_callbacks()
     return Physics.from_model(wrapper.MjModel(model))
@@ -119,11 +144,11 @@ class Abduction(control.Task):
         self._ids = physics.actuator_ids(self.muscles)
         physics.crashed = False
         physics._failed = False
-        physics.data.qpos[0] = np.radians(self.target.angle_deg[0])
-        physics.data.qvel[0] = 0.0
+        physics.set_angle(self.target.angle_deg[0])
         physics.data.ctrl[:] = 0.0
         if self.init == "hold":
-            physics.data.ctrl[self._ids] = statics.holding_activation(self._law(physics), self.target.angle_deg[0])[0]
+            physics.set_activations(self.muscles,
+                                    statics.holding_activation(self._law(physics), self.target.angle_deg[0])[0])
 
     def _law(self, physics):
         if self.law is None:
@@ -133,8 +158,7 @@ class Abduction(control.Task):
     def before_step(self, action, physics):
         """Validate, then apply: bad input raises ValueError before anything changes."""
         delta, sent = self.action_to_delta(action)
-        ctrl = physics.data.ctrl
-        ctrl[self._ids] = np.clip(ctrl[self._ids] + delta, 0.0, 1.0)
+        physics.set_activations(self.muscles, np.clip(physics.data.ctrl[self._ids] + delta, 0.0, 1.0))
         self.sent = sent
 
     def action_to_delta(self, action) -> tuple[np.ndarray, np.ndarray]:

@@ -8,8 +8,8 @@ import numpy as np
 from gymnasium import spaces
 
 from shoulder_bench import protocol
-from shoulder_bench.anatomy import JOINT_RANGE_DEG
-from shoulder_bench.protocol import VALID_MARGIN_DEG
+from shoulder_bench.arm import RANGE_DEG as JOINT_RANGE_DEG
+from shoulder_bench.arm import VALID_MARGIN_DEG
 from shoulder_bench.tasks import options as opt
 
 

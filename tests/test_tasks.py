@@ -5,7 +5,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import shoulder_bench
-from shoulder_bench import protocol
+from shoulder_bench import arm, protocol
 
 TASKS = ["abduction_ssp", "abduction_ssp_discrete", "abduction_4m", "abduction_4m_discrete"]
 
@@ -51,9 +51,9 @@ def test_observation_and_reward_by_hand():
     ts = env.step(action)
     applied = np.clip(a0 + np.clip(action, -0.01, 0.01), 0, 1)
     assert np.allclose(ts.observation["activations"], applied)
-    phi = np.degrees(physics.data.qpos[0])
+    phi = float(np.degrees(physics.named.data.qpos[arm.JOINT][0]))  # the elevation joint, by name
     assert ts.observation["angle"][0] == pytest.approx(phi)
-    assert ts.observation["angular_velocity"][0] == pytest.approx(np.degrees(physics.data.qvel[0]))
+    assert ts.observation["angular_velocity"][0] == pytest.approx(np.degrees(physics.named.data.qvel[arm.JOINT][0]))
     assert ts.observation["target_angle"][0] == task.target.angle_deg[2]  # phi_hat(t + 1) with t = 1
     assert ts.observation["target_velocity"][0] == task.target.velocity_deg_s[2]
     expected = (-abs(phi - task.target.angle_deg[1]) - 0.5 * 100 * (0.004 + 0.02 + 0.008)
@@ -186,8 +186,9 @@ def test_gymnasium_step_after_the_end_raises_reset_needed(wrapped):
 
 def test_gymnasium_observation_bounds_are_finite_where_known():
     space = gym.make("ShoulderBench/abduction_4m-v0").observation_space
-    lo, hi = shoulder_bench.anatomy.JOINT_RANGE_DEG
-    assert np.allclose(space.low[[0, 2]], [lo - 5, lo]) and np.allclose(space.high[[0, 2]], [hi + 5, hi])
+    lo, hi = arm.RANGE_DEG
+    m = arm.VALID_MARGIN_DEG
+    assert np.allclose(space.low[[0, 2]], [lo - m, lo]) and np.allclose(space.high[[0, 2]], [hi + m, hi])
     assert np.all(space.low[4:] == 0) and np.all(space.high[4:] == 1)
     assert np.all(np.isinf(space.low[[1, 3]])) and np.all(np.isinf(space.high[[1, 3]]))
 
@@ -195,9 +196,10 @@ def test_gymnasium_observation_bounds_are_finite_where_known():
 def test_gymnasium_crash_observation_stays_in_the_space():
     env = gym.make("ShoulderBench/abduction_4m-v0").unwrapped
     env.reset(seed=0)
-    env.env.physics.data.qvel[0] = 1e4  # the arm leaves the model's range within the frame
+    physics = env.env.physics
+    top = arm.RANGE_DEG[1] + arm.VALID_MARGIN_DEG
+    physics.named.data.qpos[arm.JOINT] = np.radians(top + 20.0)  # far outside the model's range
     obs, r, term, trunc, info = env.step(np.zeros(4, np.float32))
-    top = shoulder_bench.anatomy.JOINT_RANGE_DEG[1] + protocol.VALID_MARGIN_DEG
     assert term and info["crashed"] and info["angle_deg"] > top
     assert env.observation_space.contains(obs) and obs[0] == pytest.approx(top)
 

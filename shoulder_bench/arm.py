@@ -1,0 +1,191 @@
+"""The arm the tasks simulate: model v2's locked 1-DOF variant (docs/model_v2.md).
+
+`models/shoulder_v2_task.xml` is `mobl.model_xml(locked_plane_deg=TASK_PLANE_DEG, dynamics=True, actuators=True)`:
+the humerus elevates (`shoulder_elv`, the thoracohumeral elevation) in the coronal plane with axial rotation 0, and the
+clavicle and scapula follow by the MoBL rhythm (joint equalities, hardened by `mobl.harden_couplings` after every
+compile). Its state is the whole qpos/qvel (the elevation plus the ten slaved girdle joints); the tasks' angle is the
+elevation.
+
+Muscles and actuators: the tasks' muscles are ssp, isp, dmi and ld; each v2 tendon has an actuator (ssp, isp, dmi,
+ld1, ld2, ld3), and one ld activation drives the three latissimus bundles (`ACTUATORS`, `muscle.ForceLaw` groups).
+
+`LockedPath` poses a locked variant along its coupling and gives the reduced (1-DOF) quantities the tasks' statics and
+the reference controller need: gravity torque, inertia, damping, all as exact functions of the model along the
+coupled path.
+"""
+from __future__ import annotations
+
+import threading
+
+import mujoco
+import numpy as np
+
+from shoulder_bench.model import MODELS_DIR, compile_model, tendon_jacobian
+
+TASK_PLANE_DEG = 0  # the tasks' plane of elevation: coronal (docs/model_v2.md "The tasks' plane")
+MODEL_FILE = MODELS_DIR / "shoulder_v2_task.xml"
+TABLE_FOLDER = MODELS_DIR / "muscles_v2"
+JOINT = "shoulder_elv"  # the driver of the girdle couplings and the tasks' angle
+ACTUATORS = {"ssp": ("ssp",), "isp": ("isp",), "dmi": ("dmi",), "ld": ("ld1", "ld2", "ld3")}
+FINE_STEP_DEG = 0.1  # grid of the tabled reduced quantities (gravity torque, inertia); linear interpolation
+# shoulder_elv's range (MoBL, coordinate_definitions.csv: 0..180.023 deg, rounded; tests check it against the model)
+RANGE_DEG = (0.0, 180.0)
+# A numerical failure ("crash") is a non-finite state, a MuJoCo instability, or the arm further than this beyond the
+# range. The joint limit is a soft constraint at the 50 ms physics step: a free fall from the top of the range
+# overshoots the lower limit by about 21 deg (tests/test_arm.py measures it), which is not a failure.
+VALID_MARGIN_DEG = 30.0
+
+
+def actuators_of(muscles) -> tuple[str, ...]:
+    """The actuators (tendons) of the tasks' `muscles`, in model order."""
+    unknown = [m for m in muscles if m not in ACTUATORS]
+    if unknown:
+        raise ValueError(f"unknown muscle(s) {unknown}; choose from {tuple(ACTUATORS)}")
+    return tuple(a for m in ACTUATORS if m in muscles for a in ACTUATORS[m])
+
+
+def compile_arm() -> mujoco.MjModel:
+    """The task model, compiled and with its couplings hardened (thread-safe, as `model.compile_model`)."""
+    from shoulder_bench.mobl import harden_couplings
+
+    return compile_model(MODEL_FILE, prepare=harden_couplings)
+
+
+class LockedPath:
+    """A locked 1-DOF variant posed along its coupled path: the elevation set, the girdle from its polycoefs.
+
+    `model`: a compiled locked variant (default: the tasks' model); or `plane_deg`: the kinematic locked variant in
+    that plane, generated (`mobl.model_xml(locked_plane_deg=...)`)."""
+
+    def __init__(self, plane_deg: float | None = None, model: mujoco.MjModel | None = None):
+        if model is None:
+            if plane_deg is None:
+                model = compile_arm()
+            else:
+                from shoulder_bench import mobl
+
+                model = mujoco.MjModel.from_xml_string(mobl.model_xml(locked_plane_deg=plane_deg))
+        m = self.m = model
+        self._lock = threading.Lock()
+        self.d, self.hum = mujoco.MjData(m), m.body("humerus").id
+        self.q = int(m.joint(JOINT).qposadr[0])
+        self.dof = int(m.joint(JOINT).dofadr[0])
+        self.couplings = []  # (qpos address, dof address, polycoef) of each slaved joint
+        for e in range(m.neq):
+            dep, drv = m.joint(int(m.eq_obj1id[e])), m.joint(int(m.eq_obj2id[e]))
+            if drv.name != JOINT:
+                raise ValueError(f"locked variant: {dep.name} is driven by {drv.name}, not {JOINT}")
+            self.couplings.append((int(dep.qposadr[0]), int(dep.dofadr[0]), m.eq_data[e, :5].copy()))
+
+    def qpos(self, elevation_rad) -> np.ndarray:
+        """(B, nq) positions on the coupled path at elevations (B,) rad."""
+        m = self.m
+        x = np.atleast_1d(np.asarray(elevation_rad, dtype=float)) - m.qpos0[self.q]
+        out = np.tile(m.qpos0, (len(x), 1))
+        out[:, self.q] = x + m.qpos0[self.q]
+        for adr, _, c in self.couplings:
+            out[:, adr] = m.qpos0[adr] + sum(c[k] * x ** k for k in range(5))
+        return out
+
+    def pose(self, elevation_rad: float) -> mujoco.MjData:
+        m, d = self.m, self.d
+        d.qpos[:] = self.qpos(elevation_rad)[0]
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        return d
+
+    def com_height(self, elevation_rad: float) -> float:
+        """World z (m, superior) of the humerus COM."""
+        return float(self.pose(elevation_rad).xipos[self.hum, 2])
+
+    def slopes(self, elevation_rad: float) -> np.ndarray:
+        """S (nv,): dqvel / d(elevation rate) along the couplings (1 on the elevation, each polycoef's derivative)."""
+        m = self.m
+        x = elevation_rad - m.qpos0[self.q]
+        s = np.zeros(m.nv)
+        s[self.dof] = 1.0
+        for _, dof, c in self.couplings:
+            s[dof] = sum(k * c[k] * x ** (k - 1) for k in range(1, 5))
+        return s
+
+    def gravity_torque(self, elevation_rad: float) -> float:
+        """-dPE/dq (N m, + elevates) of the humerus alone: -m g (J_com S)_z, S = dqpos/dq along the couplings."""
+        m, d = self.m, self.pose(elevation_rad)
+        s = self.slopes(elevation_rad)
+        jacp = np.zeros((3, m.nv))
+        mujoco.mj_jacBodyCom(m, d, jacp, None, self.hum)
+        return float(m.body_mass[self.hum] * m.opt.gravity[2] * (jacp[2] @ s))
+
+    def inertia(self, elevation_rad: float) -> float:
+        """Reduced inertia S^T M S (kg m^2) of the whole model along the coupling."""
+        m, d = self.m, self.pose(elevation_rad)
+        mujoco.mj_crb(m, d)
+        full = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, d, full)
+        s = self.slopes(elevation_rad)
+        return float(s @ full @ s)
+
+    def damping(self, elevation_rad: float = 0.0) -> float:
+        """Reduced joint damping S^T B S (N m s/rad)."""
+        s = self.slopes(elevation_rad)
+        return float(s @ (self.m.dof_damping * s))
+
+    def tendon_geometry(self, angle_deg, tendons) -> tuple[np.ndarray, np.ndarray]:
+        """(lengths (K, n) m, total coupled moment arms r = -ten_J S (K, n) m) of `tendons` at `angle_deg`."""
+        with self._lock:  # poses share one MjData
+            return self._tendon_geometry(angle_deg, tendons)
+
+    def _tendon_geometry(self, angle_deg, tendons):
+        tid = [self.m.tendon(t).id for t in tendons]
+        angle_deg = np.atleast_1d(angle_deg)
+        L, r = np.zeros((len(angle_deg), len(tid))), np.zeros((len(angle_deg), len(tid)))
+        for k, q in enumerate(np.radians(angle_deg)):
+            d = self.pose(q)
+            mujoco.mj_tendon(self.m, d)
+            L[k] = d.ten_length[tid]
+            r[k] = -(tendon_jacobian(self.m, d)[tid] @ self.slopes(q))
+        return L, r
+
+
+class Arm(LockedPath):
+    """The tasks' arm with its reduced quantities tabled on a fine grid over the elevation joint's range (linear
+    interpolation; the tables are exact samples of `LockedPath`'s functions)."""
+
+    def __init__(self):
+        super().__init__()
+        lo, hi = RANGE_DEG
+        self._grid = np.radians(np.arange(lo - VALID_MARGIN_DEG, hi + VALID_MARGIN_DEG + 1e-9, FINE_STEP_DEG))
+        self._gravity = np.array([super(Arm, self).gravity_torque(q) for q in self._grid])
+        self._inertia = np.array([super(Arm, self).inertia(q) for q in self._grid])
+
+    def gravity_torque(self, elevation_rad):
+        """Gravity torque (N m, + elevates) at elevations (rad), array in, array out."""
+        return np.interp(elevation_rad, self._grid, self._gravity)
+
+    def inertia(self, elevation_rad):
+        return np.interp(elevation_rad, self._grid, self._inertia)
+
+    def moment_arms(self, angle_deg) -> dict[str, np.ndarray]:
+        """Total coupled moment arms (m) of every actuator's tendon at `angle_deg`, for `ForceLaw.load(arms=...)`."""
+        names = tuple(a for v in ACTUATORS.values() for a in v)
+        return dict(zip(names, self.tendon_geometry(angle_deg, names)[1].T))
+
+    def load_law(self, muscle_model: str, muscles=tuple(ACTUATORS)):
+        """The tasks' force law of `muscles` (v2 tables, `TABLE_FOLDER`), one activation per muscle."""
+        from shoulder_bench.muscle import ForceLaw
+
+        acts = actuators_of(muscles)
+        groups = {m: ACTUATORS[m] for m in ACTUATORS if m in muscles}
+        return ForceLaw.load(muscle_model, muscles=acts, folder=TABLE_FOLDER, arms=self.moment_arms, groups=groups)
+
+
+_ARM: list[Arm] = []
+_ARM_LOCK = threading.Lock()
+
+
+def arm() -> Arm:
+    """The tasks' arm (built once per process, thread-safe)."""
+    with _ARM_LOCK:
+        if not _ARM:
+            _ARM.append(Arm())
+        return _ARM[0]
