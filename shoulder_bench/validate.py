@@ -35,6 +35,7 @@ PASSIVE_MAX_NM = 0.5
 PEAK_TORQUE_TOL = 0.30
 SIGN_MUSCLES = {"isp": "an external rotator", "ld": "an internal rotator"}
 TOL = 1e-9  # float slack on the bounds
+DEFAULT_OUT = Path("runs/validation")  # --out: the figures go under runs/, the project's output folder
 NOT_MODELLED = "not modelled (v1: 1-DOF coronal hinge, fixed girdle)"
 # The plane of elevation (deg) of the tasks for the v2 model (None would mean not chosen: every target in the tasks'
 # plane then fails with NO_TASK_PLANE). Coronal (0), on protocol grounds: the paper's tasks are shoulder abduction,
@@ -380,8 +381,9 @@ def add_parser(subparsers):
                    help="the MJCF to validate: v1 (default, models/shoulder.xml, the tasks' model) or the v2 "
                    "kinematic model (models/shoulder_v2.xml: geometry, forces by a static estimate)")
     v.add_argument("--json", action="store_true", help="print one JSON object instead of the tables")
-    v.add_argument("--out", type=Path, default=Path("."), help="folder for the figures validate_<muscle>.png "
-                   "(v2: validate_v2_<muscle>.png; default: the current folder; created if missing)")
+    v.add_argument("--out", type=Path, default=DEFAULT_OUT, help="folder for the figures validate_<muscle>.png "
+                   "(v2: validate_v2_<muscle>.png; default: %(default)s, under the current folder, as the other "
+                   "commands' runs/...; created if missing)")
     v.add_argument("--muscle-model", choices=MUSCLE_MODELS, default=DEFAULT_MUSCLE_MODEL,
                    help="muscle tables for the force quantities (default: %(default)s)")
     v.set_defaults(func=_run)

@@ -125,7 +125,7 @@ def _run(argv, capsys):
     return rc, capsys.readouterr()
 
 
-def test_command_end_to_end(tmp_path, capsys):
+def test_command_end_to_end(tmp_path, capsys, monkeypatch):
     rc, out = _run(["model", "validate", "--json", "--out", str(tmp_path / "figs")], capsys)
     report = json.loads(out.out)
     for key in ("model", "follows", "envelope_excluded", "moment_arms", "relaxed_rest_deg", "passive_torque_Nm",
@@ -152,8 +152,11 @@ def test_command_end_to_end(tmp_path, capsys):
     for f in figures:
         assert f.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and f.stat().st_size > 10_000
 
-    rc_text, out = _run(["model", "validate", "--out", str(tmp_path / "figs")], capsys)
+    monkeypatch.chdir(tmp_path)  # the default --out: runs/validation under the current folder, not the folder itself
+    rc_text, out = _run(["model", "validate"], capsys)
     assert rc_text == rc
+    assert sorted(f.name for f in (tmp_path / "runs" / "validation").iterdir()) == [f.name for f in figures]
+    assert not list(tmp_path.glob("*.png"))
     lines = out.out.splitlines()
     assert sum(x.startswith("[FAIL]") for x in lines) == len(failed)
     assert sum(x.startswith("[pass]") for x in lines) == len(targets) - len(failed)
