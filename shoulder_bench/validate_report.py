@@ -86,15 +86,23 @@ def _say_targets(r, say):
     n_pass = sum(t["passed"] for t in r["targets"])
     for t in r["targets"]:
         say(f"[{'pass' if t['passed'] else 'FAIL'}] {t['target']}: {t['measured']} (bound: {t['bound']})")
+        if t.get("coupled") and "planes" not in t:  # the start-of-abduction targets: the coupled girdle, beside
+            say(f"       {_coupled(t['coupled'])}")
         for plane, res in t.get("planes", {}).items():  # v2: each candidate tasks' plane
             bound = f" (bound: {res['bound']})" if t["bound"] == "per plane" else ""
+            coupled = f"; {_coupled(res['coupled'])}" if "coupled" in res else ""
             say(f"       {PLANE_NAMES[int(plane)]} ({plane} deg) {'pass' if res['passed'] else 'FAIL'}: "
-                f"{res['measured']}{bound}")
+                f"{res['measured']}{bound}{coupled}")
         if t["note"]:
             say(f"       {t['note']}")
     for f in r.get("figures", []):
         say(f"figure: {f}")
     say("all targets met" if r["passed"] else f"{len(r['targets']) - n_pass} target(s) missed: exit status 1")
+
+
+def _coupled(c: dict) -> str:
+    """The coupled-girdle value shown beside a target judged with the girdle fixed (information, no target)."""
+    return f"girdle coupled (shown, no target): {c['measured']}" + (f" ({c['note']})" if c["note"] else "")
 
 
 def _two_plane_table(say, ma, rows, label_width=22):
@@ -157,8 +165,8 @@ def _print_v2(r, say):
     chosen = ("tasks' plane not chosen yet (validate.TASK_PLANE_V2 = None): the targets in it fail; both candidate "
               "planes shown" if tp is None else f"tasks' plane {PLANE_NAMES[tp]} ({tp} deg)")
     say(f"\nTargets: {n_pass} of {len(r['targets'])} pass; {chosen}")
-    say("moment-arm targets met per candidate plane (girdle coupled): " + ", ".join(
-        f"{PLANE_NAMES[int(p)]} {c['passed']} of {c['of']}" for p, c in r["per_plane_passed"].items())
+    say("moment-arm targets met per candidate plane (girdle coupled; the start of abduction girdle fixed): "
+        + ", ".join(f"{PLANE_NAMES[int(p)]} {c['passed']} of {c['of']}" for p, c in r["per_plane_passed"].items())
         + "; force targets (static estimate): " + ", ".join(
         f"{PLANE_NAMES[int(p)]} {c['force_passed']} of {c['force_of']}" for p, c in r["per_plane_passed"].items()))
     _say_targets(r, say)

@@ -94,13 +94,15 @@ def moment_arm_section(refs, grid: dict, fine: dict, bundles: dict) -> dict:
             "references_mm": ref_curves, "rmse": rows}
 
 
-def _plane_targets(refs, grid: dict, fine: dict, plane: int, cond: str) -> tuple[list[dict], list[dict]]:
-    """(moment-arm targets, sign targets) as if `plane` were the tasks' plane: v1's target logic on v2's curves."""
+def _plane_targets(refs, grid: dict, fine: dict, plane: int, cond: str, plane_text: str
+                   ) -> tuple[list[dict], list[dict]]:
+    """(moment-arm targets, sign targets) as if `plane` were the tasks' plane: v1's target logic on v2's curves (the
+    start-of-abduction targets on the 1-deg curves, girdle fixed, the coupled values beside them)."""
     view = V.ModelView(("shoulder_elv",), (plane,), "coupled", plane, "", version="2")
     arms = {m: grid[(m, "shoulder_elv", plane, "coupled")] for m in anatomy.MUSCLES}
-    fine_arms = {m: fine[(m, "shoulder_elv", plane, "coupled")] for m in anatomy.MUSCLES}
     signs = V._sign_targets(view, refs, lambda m, c: (grid[(m, c, plane, "coupled")], ""))
-    return V._moment_arm_targets(view, refs, arms, fine_arms, cond), signs
+    early = V._early_targets(lambda m, g: (fine[(m, "shoulder_elv", plane, g)], ""), "", plane_text)
+    return V._moment_arm_targets(view, refs, arms, cond) + early, signs
 
 
 def combine(per_plane: dict[int, list[dict]], task_plane: int | None) -> list[dict]:
@@ -110,14 +112,17 @@ def combine(per_plane: dict[int, list[dict]], task_plane: int | None) -> list[di
     for rows in zip(*per_plane.values()):
         first = rows[0]
         assert all(t["id"] == first["id"] and t["target"] == first["target"] for t in rows)
-        planes = {str(p): {"passed": t["passed"], "measured": t["measured"], "bound": t["bound"]}
-                  for p, t in zip(per_plane, rows)}
+        planes = {str(p): {"passed": t["passed"], "measured": t["measured"], "bound": t["bound"],
+                           **({"coupled": t["coupled"]} if "coupled" in t else {})} for p, t in zip(per_plane, rows)}
+        extra = {k: first[k] for k in ("girdle",) if k in first}  # the judged girdle (the start-of-abduction targets)
+        if "coupled" in first:  # shown beside them, no target: the tasks' plane's, or none while it is not chosen
+            extra["coupled"] = None if task_plane is None else planes[str(task_plane)]["coupled"]
         bound = first["bound"] if len({t["bound"] for t in rows}) == 1 else "per plane"
         if task_plane is None:
             passed, measured = False, V.NO_TASK_PLANE
         else:
             passed, measured = planes[str(task_plane)]["passed"], planes[str(task_plane)]["measured"]
-        out.append({**V.target(first["id"], first["target"], passed, measured, bound, first["note"]),
+        out.append({**V.target(first["id"], first["target"], passed, measured, bound, first["note"]), **extra,
                     "task_plane_deg": task_plane, "planes": planes})
     return out
 
@@ -142,7 +147,7 @@ def evaluate(view: V.ModelView, shown: str, path) -> dict:
     tp = view.task_plane
     plane_text = "tasks'" if tp is None else V.PLANE_NAMES[tp]
     cond = f"{plane_text} plane, rotation 0, girdle coupled, 0-120 deg"
-    results = {p: _plane_targets(refs, grid, fine, p, cond) for p in PLANES}
+    results = {p: _plane_targets(refs, grid, fine, p, cond, plane_text) for p in PLANES}
     statics = {p: statics_v2.summary(statics_v2.analyse(p, path), refs) for p in PLANES}
     forces = {p: _force_targets(statics[p], cond) for p in PLANES}
     arm_targets = combine({p: r[0] for p, r in results.items()}, tp)

@@ -120,6 +120,30 @@ def test_not_modelled_conditions_give_no_curve():
         assert validate.model_curve(view, arms, "ssp", coord, view.task_plane, view.girdle) == (None, view.missing)
 
 
+def test_start_of_abduction_targets_are_judged_girdle_fixed_and_show_coupled():
+    # synthetic 1-deg curves: the fixed girdle meets all four targets, the coupled one misses all four
+    x = validate.FINE
+    fixed = {"ssp": np.full_like(x, 20.0), "dmi": 30.0 - 0.0025 * (x - 80.0) ** 2}  # 14 mm at 0, peak 30 at 80 deg
+    coupled = {"ssp": np.full_like(x, 5.0), "dmi": 10.0 + 0.15 * x}  # 10 mm at 0 (above ssp), peak 28 mm at 120 deg
+    curves = {"fixed": fixed, "coupled": coupled}
+    rows = validate._early_targets(lambda m, g: (curves[g][m], f"note {g}"), "missing", "coronal")
+    assert [t["id"] for t in rows] == list(validate.EARLY_IDS)
+    assert validate.EARLY_GIRDLE == "fixed"
+    for t in rows:
+        assert t["passed"] and t["girdle"] == "fixed" and "girdle fixed" in t["target"], t
+        assert t["note"] == "note fixed" and t["coupled"]["note"] == "note coupled"
+    by_id = {t["id"]: t for t in rows}
+    assert by_id["early/dmi_at_side"]["measured"] == "14.0 mm"
+    assert by_id["early/dmi_at_side"]["coupled"]["measured"] == "10.0 mm"
+    assert by_id["early/dmi_peak_angle"]["measured"] == "peak at 80 deg"
+    assert by_id["early/dmi_peak_angle"]["coupled"]["measured"] == "peak at 120 deg"
+    assert by_id["early/dmi_peak"]["coupled"]["measured"] == "28.0 mm"
+    assert by_id["early/ssp_above_dmi"]["coupled"]["measured"].startswith("ssp - dmi -")
+    # what the model cannot pose fails, with the reason
+    rows = validate._early_targets(lambda m, g: (None, "missing"), "missing", "coronal")
+    assert not any(t["passed"] for t in rows) and all(t["note"] == "missing" for t in rows)
+
+
 def _run(argv, capsys):
     rc = cli.main(argv)
     return rc, capsys.readouterr()
@@ -143,6 +167,13 @@ def test_command_end_to_end(tmp_path, capsys, monkeypatch):
     for t in targets:  # a condition the model cannot pose never passes
         if "not modelled" in t["note"]:
             assert not t["passed"], t
+    early = [t for t in targets if t["id"].startswith("early/")]
+    assert [t["id"] for t in early] == list(validate.EARLY_IDS)
+    for t in early:  # v1's hinge is a fixed girdle: judged in its own condition; the coupled value is the same curve
+        assert t["girdle"] == "fixed" and t["note"] == "" and "girdle fixed" in t["target"], t
+        assert t["coupled"] == {"measured": t["measured"], "note": "model girdle fixed"}, t
+    dmi = np.array(report["moment_arms"]["model_mm"]["dmi"])
+    assert early[1]["measured"] == f"{dmi[0]:.1f} mm"
     failed = [t for t in targets if not t["passed"]]
     assert report["passed"] is (not failed)
     assert rc == (1 if failed else 0)
@@ -161,6 +192,7 @@ def test_command_end_to_end(tmp_path, capsys, monkeypatch):
     assert sum(x.startswith("[FAIL]") for x in lines) == len(failed)
     assert sum(x.startswith("[pass]") for x in lines) == len(targets) - len(failed)
     assert "Moment-arm RMSE" in out.out and "relaxed rest angle" in out.out
+    assert sum(x.startswith("       girdle coupled (shown, no target): ") for x in lines) == 4
 
 
 def test_command_rejects_a_file_as_out_before_any_work(tmp_path, capsys):
@@ -248,6 +280,29 @@ def test_v2_targets_are_decided_in_the_tasks_plane_and_shown_in_both(v2_report):
         assert (t["passed"], t["measured"], t["planes"]["0"]["passed"]) == (ok, measured, True)
 
 
+def test_v2_start_of_abduction_is_judged_girdle_fixed_with_coupled_shown(v2_report):
+    fine = v2_report["moment_arms"]["model_fine_mm"]
+    x = np.asarray(v2_report["moment_arms"]["fine_elevation_deg"])
+    by_id = {t["id"]: t for t in v2_report["targets"]}
+    chosen = str(validate.TASK_PLANE_V2)
+    for p in ("0", "30"):
+        dmi = {g: np.asarray(fine[f"dmi/shoulder_elv/{p}/{g}"]) for g in ("fixed", "coupled")}
+        side, angle, peak = by_id["early/dmi_at_side"], by_id["early/dmi_peak_angle"], by_id["early/dmi_peak"]
+        for t, want in ((side, lambda d: f"{d[0]:.1f} mm"), (angle, lambda d: f"peak at {x[np.argmax(d)]:g} deg"),
+                        (peak, lambda d: f"{d.max():.1f} mm")):
+            assert t["planes"][p]["measured"] == want(dmi["fixed"]), (t["id"], p)
+            assert t["planes"][p]["coupled"]["measured"] == want(dmi["coupled"]), (t["id"], p)
+    for tid in validate.EARLY_IDS:
+        t = by_id[tid]
+        assert t["girdle"] == "fixed" and "girdle fixed" in t["target"]
+        assert t["coupled"] == t["planes"][chosen]["coupled"]
+        assert t["passed"] == t["planes"][chosen]["passed"]
+    # the issue's dmi numbers hold with the girdle fixed (30.3 mm at 82 deg coronal), not coupled (24.1 at 110)
+    assert by_id["early/dmi_peak"]["planes"]["0"]["measured"] == "30.3 mm"
+    assert by_id["early/dmi_peak"]["planes"]["0"]["coupled"]["measured"] == "24.1 mm"
+    assert by_id["early/dmi_peak_angle"]["planes"]["0"]["coupled"]["measured"] == "peak at 110 deg"
+
+
 def test_v2_command_end_to_end(tmp_path, capsys, v2_report):
     rc, out = _run(["model", "validate", "--model", str(V2_PATH), "--json", "--out", str(tmp_path)], capsys)
     report = json.loads(out.out)
@@ -273,6 +328,8 @@ def test_v2_command_end_to_end(tmp_path, capsys, v2_report):
     assert per_plane == [22, 22]  # each target in the tasks' plane, shown in both candidates
     assert "not yet" not in out.out
     assert any(x.startswith("relaxed rest angle (activations 0): coronal (0 deg) ") for x in lines)
+    coupled = [x for x in lines if "; girdle coupled (shown, no target): " in x]
+    assert len(coupled) == 2 * len(validate.EARLY_IDS)  # beside each start-of-abduction target, in both planes
 
 
 def test_command_refuses_an_unknown_or_missing_model(tmp_path, capsys):
