@@ -1,7 +1,7 @@
 """How far can a task's muscles follow the fixed test set at all? Static capacity and the activation-rate limit.
 
 For every frame of the 100 test trajectories: can the muscles hold the arm at the target angle within activation 1
-(static capacity against gravity), and does holding it from one frame to the next need an activation change above the
+(static capacity against gravity, on the tasks' arm), and does holding it from one frame to the next need an activation change above the
 protocol's 1 % per frame? Both are quasi-static estimates (they ignore acceleration), i.e. optimistic about what a
 controller can do.
 
@@ -14,8 +14,8 @@ import argparse
 import numpy as np
 
 from shoulder_bench import statics
+from shoulder_bench.arm import arm
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
-from shoulder_bench.muscle import ForceLaw
 from shoulder_bench.trajectory import load_test_set
 from shoulder_bench.validate import static_capacity, static_reach
 
@@ -25,7 +25,7 @@ def main() -> None:
     p.add_argument("--muscles", nargs="+", default=["ssp"])
     p.add_argument("--muscle-model", default=DEFAULT_MUSCLE_MODEL)
     args = p.parse_args()
-    law = ForceLaw.load(args.muscle_model, muscles=tuple(args.muscles))
+    law = arm().load_law(args.muscle_model, tuple(args.muscles))  # the tasks' arm (model v2)
     angles = np.arange(0.0, 121.0, 10.0)
     rad = np.radians(angles)
     full = law.torque(rad, np.zeros_like(rad), np.ones((len(rad), len(args.muscles)))).sum(axis=1)

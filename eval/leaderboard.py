@@ -62,7 +62,7 @@ def _mean_std(values) -> tuple[float, float]:
 
 def model_version() -> str:
     """The version of the model the board evaluates on now (the reference controller's rows)."""
-    from shoulder_bench.anatomy import MODEL_VERSION
+    from shoulder_bench.arm import MODEL_VERSION
 
     return str(MODEL_VERSION)
 

@@ -12,7 +12,7 @@ its scapular via point are placed by hand (MoBL thorax points need a frame chain
 """
 from __future__ import annotations
 
-MODEL_VERSION = "1"  # recorded in every run and policy; bump when the model's dynamics change
+MODEL_VERSION = "1"  # this (v1) model's version; the tasks run model v2 (shoulder_bench.arm.MODEL_VERSION)
 MUSCLES = ("ssp", "isp", "dmi", "ld")
 MUSCLE_NAMES = {"ssp": "supraspinatus", "isp": "infraspinatus", "dmi": "deltoid, middle part", "ld": "latissimus dorsi"}
 

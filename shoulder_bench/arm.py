@@ -22,6 +22,7 @@ import numpy as np
 
 from shoulder_bench.model import MODELS_DIR, compile_model, tendon_jacobian
 
+MODEL_VERSION = "2"  # recorded in every run and policy; bump when the tasks' model or its dynamics change
 TASK_PLANE_DEG = 0  # the tasks' plane of elevation: coronal (docs/model_v2.md "The tasks' plane")
 MODEL_FILE = MODELS_DIR / "shoulder_v2_task.xml"
 TABLE_FOLDER = MODELS_DIR / "muscles_v2"

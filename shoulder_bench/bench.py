@@ -43,15 +43,15 @@ def batched_rate(venv, frames: int, gen: torch.Generator) -> float:
 def bare_rate(n: int, frames: int, nthread: int = 2) -> tuple[float, float]:
     """Frames/s of plain MuJoCo on the same model (fixed gains, no callback), and its physics step."""
     check_counts(num_envs=n, frames=frames, nthread=nthread)
-    from shoulder_bench.model import compile_model
+    from shoulder_bench.arm import arm, compile_arm
 
-    m = compile_model()
+    m = compile_arm()  # the tasks' model (v2 locked arm, couplings hardened)
     m.actuator_gaintype[:] = mujoco.mjtGain.mjGAIN_FIXED
     m.actuator_gainprm[:, 0] = 1.0
     m.actuator_biastype[:] = mujoco.mjtBias.mjBIAS_NONE
     spf = max(1, int(round(0.1 / m.opt.timestep)))
     d = mujoco.MjData(m)
-    d.qpos[0] = np.radians(45.0)
+    d.qpos[:] = arm().qpos(np.radians(45.0))[0]
     mujoco.mj_forward(m, d)
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     s0 = np.zeros(mujoco.mj_stateSize(m, spec))

@@ -73,7 +73,7 @@ def plan(task: str, algo: str, frames: int | None = None, seed: int = 0, overrid
     """Check everything that defines a run, before any work: (algorithm module, its config, the run's config.json).
 
     The budget is rounded up to whole iterations (PPO: num_envs x steps_per_env frames; DQN/BDQ: num_envs)."""
-    from shoulder_bench.anatomy import MODEL_VERSION
+    from shoulder_bench.arm import MODEL_VERSION
     from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
     from shoulder_bench.muscle import MUSCLE_MODELS
     from shoulder_bench.train.config import build
