@@ -41,7 +41,7 @@ def main() -> None:
     rate = np.abs(np.diff(hold, axis=1)).max(axis=2) > 0.01
     print(f"test frames the muscles cannot hold even at activation 1: {unreachable.mean():.1%}")
     print(f"test steps whose holding activation changes faster than 1 %/frame: {rate.mean():.1%}")
-    top = static_reach(law)  # held at rest at every angle from 0 up to top (0.1 deg grid)
+    top = static_reach(law, gravity=statics.gravity_torque)  # held at rest at every angle from 0 up to top (0.1 deg grid)
     target = np.degrees(allang)
     print(f"highest angle held at rest: {top:.1f} deg; quasi-static lower bound on the test MAE (targets above it "
           f"cannot be reached for long): {np.maximum(target - top, 0).mean():.2f} deg")

@@ -24,13 +24,15 @@ from shoulder_bench.tasks import TASKS, _check
 class ReferenceController:
     """policy(obs (B, 4 + n) float32 tensor) -> changes of activation (B, n), for `evaluate`."""
 
-    def __init__(self, task: str, muscle_model: str = DEFAULT_MUSCLE_MODEL, kp: float = 60.0, kv: float = 14.0):
+    def __init__(self, task: str, muscle_model: str = DEFAULT_MUSCLE_MODEL, kp: float = 60.0, kv: float = 14.0,
+                 joint_damping: float | None = None):
         muscles, discrete, _ = TASKS[_check(task)]
         if discrete:
             raise ValueError(f"the reference controller acts continuously; use {task.replace('_discrete', '')}")
         self.arm = arm()
         self.law = self.arm.load_law(muscle_model, muscles)
-        self.damping = self.arm.damping()  # reduced along the coupling (linear couplings: constant)
+        # reduced along the coupling (linear couplings: constant); joint_damping: the task option's, if set
+        self.damping = self.arm.damping() if joint_damping is None else float(joint_damping)
         self.kp, self.kv = kp, kv
         self.muscle_model = muscle_model
 

@@ -168,11 +168,19 @@ def static_capacity(law, angle_rad) -> np.ndarray:
     return np.maximum(law.torque(angle_rad, v, ones), law.torque(angle_rad, v, zeros)).sum(axis=1)
 
 
-def static_reach(law, step_deg: float = 0.1, top_deg: float = anatomy.JOINT_RANGE_DEG[1]):
-    """How high the law's muscles can hold the humerus at rest against gravity: the highest angle (deg, on a
-    `step_deg` grid from 0 below `top_deg`) up to which every angle from 0 can be held; None if not even 0."""
+def v1_gravity_torque(angle_rad) -> np.ndarray:
+    """Gravity torque (N m, + elevates) of the v1 model's humerus on its abduction hinge (v1's law; the tasks' arm
+    has `statics.gravity_torque`)."""
+    com = np.linalg.norm(anatomy.HUMERUS_COM)
+    return -anatomy.HUMERUS_MASS * statics.GRAVITY * com * np.sin(angle_rad)
+
+
+def static_reach(law, step_deg: float = 0.1, top_deg: float = anatomy.JOINT_RANGE_DEG[1], gravity=v1_gravity_torque):
+    """How high the law's muscles can hold the humerus at rest against gravity (`gravity(angle_rad)`, default v1's;
+    `statics.gravity_torque` for the tasks' arm): the highest angle (deg, on a `step_deg` grid from 0 below
+    `top_deg`) up to which every angle from 0 can be held; None if not even 0."""
     fine = np.radians(np.arange(0.0, top_deg, step_deg))
-    return statics.reach_on_grid(np.degrees(fine), static_capacity(law, fine), statics.gravity_torque(fine), top_deg)
+    return statics.reach_on_grid(np.degrees(fine), static_capacity(law, fine), gravity(fine), top_deg)
 
 
 def passive_torque(law, angle_deg) -> np.ndarray:
@@ -188,7 +196,7 @@ def relaxed_rest_angle(law, step_deg: float = 0.1) -> float:
     lo, hi = anatomy.JOINT_RANGE_DEG
 
     def net(deg):
-        return passive_torque(law, deg) + statics.gravity_torque(np.radians(deg))
+        return passive_torque(law, deg) + v1_gravity_torque(np.radians(deg))
 
     sign = 1.0 if float(net(0.0)[0]) >= 0 else -1.0  # sample only the side it is pushed to
     deg = np.arange(0.0, (hi if sign > 0 else -lo) + 1e-9, step_deg) * sign

@@ -45,6 +45,7 @@ class VecEnv(_RslVecEnv):
         self.law = self.arm.load_law(muscle_model, self.muscles)
         self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread, path=arm_.MODEL_FILE,
                                   prepare=harden_couplings)
+        self.sim.model.dof_damping[self.sim.dadr] = self.task.joint_damping
         self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
         split_frames = int(round(targets.SPLITS[self.task.split]["duration_s"] / protocol.FRAME_S))
         self.episode_frames = np.array([split_frames if t is None else t.frames for t in self.fixed])

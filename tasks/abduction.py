@@ -21,6 +21,7 @@ from shoulder_bench.model import DEFAULT_MUSCLE_MODEL, attach_law, install_callb
 from shoulder_bench.tasks import options as opt
 
 VALID_MARGIN_DEG = arm_.VALID_MARGIN_DEG  # beyond the joint range by more than this = the simulation has failed
+MAX_JOINT_DAMPING = 10.0  # N m s/rad: the sensitivity runs use 0.1-1.0; far above, RK4 at 50 ms is not stable
 INITS = ("hold", "zero")  # start at rest on the target with the holding activations, or with none
 
 
@@ -102,8 +103,8 @@ class Abduction(control.Task):
     option and what it accepts (`shoulder_bench.tasks.options`)."""
 
     def __init__(self, muscles, discrete=False, split="train", trajectory_=None, tracking_only=None,
-                 alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", random=None,
-                 **unknown):
+                 alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", joint_damping=0.0,
+                 random=None, **unknown):
         super().__init__()
         opt.check_names(unknown)
         self.muscles = tuple(muscles)
@@ -115,6 +116,8 @@ class Abduction(control.Task):
         self.alpha = opt.number("alpha", alpha, 0.0, protocol.MAX_ALPHA)
         self.omega_max = opt.number("omega_max", omega_max, 0.0)
         self.init = opt.choice("init", init, INITS)
+        # viscous damping of the elevation joint (N m s/rad); the model has none (docs/model_v2.md "Damping")
+        self.joint_damping = opt.number("joint_damping", joint_damping, 0.0, MAX_JOINT_DAMPING)
         self.reseed(random)
         self.target: trajectory.Trajectory | None = None
         self.frame = 0
@@ -201,6 +204,7 @@ def make_env(muscles, discrete=False, split="train", seed=None, trajectory=None,
     target = _as_trajectory(trajectory)
     task = Abduction(muscles, discrete=discrete, split=split, trajectory_=target, random=seed, **options)
     physics = make_physics(tuple(muscles), muscle_model)
+    physics.model.dof_damping[physics._adr()[1]] = task.joint_damping
     return control.Environment(physics, task, time_limit=float("inf"), control_timestep=protocol.FRAME_S)
 
 

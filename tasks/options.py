@@ -20,6 +20,7 @@ OPTIONS = {
     "omega_max": "a finite number >= 0",
     "tracking_only": "None (the task's default), True or False",
     "init": "'hold' or 'zero'",
+    "joint_damping": "a finite number in [0, 10] (N m s/rad on the elevation joint; default 0, the model's)",
 }
 
 
