@@ -25,7 +25,8 @@ What comes from where (all read by `shoulder_bench.mobl_data` from `models/refer
 World frame: the thorax frame (x anterior, y superior, z lateral) rotated +90 deg about x, so world x is anterior,
 z superior and y points to the subject's left (the right arm is on -y). No actuators by default (`actuators=True`
 adds one per tendon, for the v2 Hill tables, `shoulder_bench.hill_v2`), no contact (no geom has a contype), RK4 at
-v1's timestep.
+v1's timestep. No scene by default; the tasks' file (`task_model_xml`) has one (`scene=True`: sky, floor, light,
+cameras `front` and `back`), so the tasks' physics renders by itself.
 """
 from __future__ import annotations
 
@@ -55,6 +56,32 @@ COUPLING_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2)
 # after compiling: it changes only the constraint softness (R), not the inertia, the forces or the reference
 # acceleration. MJCF has no attribute for it.
 COUPLING_INVWEIGHT = 0.01
+
+# model_xml(scene=True): v1's scene (models/scene.xml: sky, haze, headlight, a directional key light, the floor 1.35 m
+# below the shoulder) with its cameras `front` (anterior view, the right arm on the image's left) and `back` aimed at
+# this model's shoulder: the GH centre is at about (-0.02, -0.17, 0) m, the humerus reaches y = -0.44 m at 90 deg and
+# z = +0.29 m at the top of its range; the view (fovy 45 deg at 0.85 m) spans the arm over its range and the thorax.
+# Visual only; the sky texture is small (it is compiled into every task model).
+SCENE = {
+    "visual": """  <statistic center="-0.02 -0.19 0" extent="0.5"/>
+  <visual>
+    <global offwidth="1280" offheight="960"/>
+    <headlight diffuse="0.6 0.6 0.6" ambient="0.3 0.3 0.3" specular="0 0 0"/>
+    <rgba haze="0.15 0.25 0.35 1"/>
+  </visual>
+  <asset>
+    <texture type="skybox" builtin="gradient" rgb1="0.3 0.5 0.7" rgb2="0 0 0" width="64" height="384"/>
+    <texture type="2d" name="groundplane" builtin="checker" mark="edge" rgb1="0.2 0.3 0.4" rgb2="0.1 0.2 0.3"
+             markrgb="0.8 0.8 0.8" width="300" height="300"/>
+    <material name="groundplane" texture="groundplane" texuniform="true" texrepeat="5 5" reflectance="0.2"/>
+  </asset>""",
+    "worldbody": """    <!-- scene (rendering only) -->
+    <light name="key" pos="0.8 0.4 1.0" dir="-0.6 -0.3 -0.7" directional="true"/>
+    <geom name="floor" pos="0 0 -1.35" size="0 0 0.05" type="plane" material="groundplane" group="0"/>
+    <camera name="front" pos="0.85 -0.19 0.04" xyaxes="0 1 0 -0.05 0 1" fovy="45"/>
+    <camera name="back" pos="-0.85 -0.19 0.04" xyaxes="0 -1 0 0.05 0 1" fovy="45"/>
+""",
+}
 
 
 def _n(x: float) -> str:
@@ -169,7 +196,7 @@ def harden_couplings(model, invweight: float = COUPLING_INVWEIGHT):
 
 
 def model_xml(clavicle: str = "mobl", folder: Path | None = None, locked_plane_deg: float | None = None,
-              dynamics: bool = False, actuators: bool = False) -> str:
+              dynamics: bool = False, actuators: bool = False, scene: bool = False) -> str:
     """The v2 MJCF. `clavicle="myoarm"` puts the clavicle where MyoArm has it (for the reconstruction test only).
 
     `locked_plane_deg`: the locked 1-DOF variant the paper's tasks run on: elevation (`shoulder_elv`) the only GH
@@ -190,7 +217,10 @@ def model_xml(clavicle: str = "mobl", folder: Path | None = None, locked_plane_d
     length comes from (`hill_v2`), so the applied torque is the table's at every pose by construction, with no
     separately fitted moment arm that could drift from the path; along the coupled girdle the reduced torque is
     S^T ten_J^T F, S the coupling slopes. A table that changes (the FEM's, later) changes data, not this. Compile
-    with `model.compile_model`'s recipe (user actuators cannot be compiled while the callbacks are installed)."""
+    with `model.compile_model`'s recipe (user actuators cannot be compiled while the callbacks are installed).
+
+    `scene=True`: what rendering needs (`SCENE`): sky, floor, lights and the cameras `front` and `back`, v1's
+    (models/scene.xml) framed on this model's shoulder and girdle. Visual only: no effect on the dynamics."""
     frames, joints, paths = D.body_frames(folder), D.joints(folder), D.muscle_paths(folder)
     D.check_clavicle_parallel(folder)
     if clavicle not in ("mobl", "myoarm"):
@@ -257,7 +287,11 @@ def model_xml(clavicle: str = "mobl", folder: Path | None = None, locked_plane_d
                     "       mobl.harden_couplings(model) after compiling.")
     if actuators:
         variant += "\n       Actuators: one per tendon, user gain/bias (the tabled force law, model.attach_law)."
+    if scene:
+        variant += "\n       Scene: sky, floor, lights, cameras front and back (rendering only)."
     nl = "\n    "
+    visual = SCENE["visual"] if scene else '  <visual><global offwidth="1280" offheight="960"/></visual>'
+    scene_body = SCENE["worldbody"] if scene else ""
     size = '\n  <size nuser_actuator="2"/>' if actuators else ""
     act_block = f"\n  <actuator>\n    {nl.join(acts)}\n  </actuator>" if actuators else ""
     return f"""<mujoco model="{name}">
@@ -265,7 +299,7 @@ def model_xml(clavicle: str = "mobl", folder: Path | None = None, locked_plane_d
        {where}); edit those, not this file. docs/model_v2.md{variant} -->
   <compiler angle="degree" autolimits="true" inertiafromgeom="false"/>
   <option timestep="{PHYSICS_TIMESTEP}" integrator="RK4" gravity="0 0 -9.81"><flag contact="disable"/></option>{size}
-  <visual><global offwidth="1280" offheight="960"/></visual>
+{visual}
   <default>
     <geom contype="0" conaffinity="0" group="1"/>
     <default class="bone"><geom rgba="0.89 0.85 0.76 1"/></default>
@@ -274,7 +308,7 @@ def model_xml(clavicle: str = "mobl", folder: Path | None = None, locked_plane_d
     <default class="side_site"><site size="0.003" rgba="0.2 0.9 0.2 1" group="4"/></default>
   </default>
   <worldbody>
-{body}  </worldbody>
+{scene_body}{body}  </worldbody>
   <equality>
     {nl.join(eqs)}
   </equality>
@@ -300,10 +334,11 @@ def _place(seen: dict, inner: dict, item, xml: str) -> None:
 
 
 def task_model_xml() -> str:
-    """The tasks' model (`arm.MODEL_FILE`): the locked 1-DOF variant in the tasks' plane, stepping settings, actuators."""
+    """The tasks' model (`arm.MODEL_FILE`): the locked 1-DOF variant in the tasks' plane, stepping settings, actuators,
+    and the scene (the tasks' physics renders by itself: dm_control's `physics.render`, gymnasium's `render()`)."""
     from shoulder_bench.arm import TASK_PLANE_DEG
 
-    return model_xml(locked_plane_deg=TASK_PLANE_DEG, dynamics=True, actuators=True)
+    return model_xml(locked_plane_deg=TASK_PLANE_DEG, dynamics=True, actuators=True, scene=True)
 
 
 def write_model(models_dir: Path | None = None) -> list[Path]:

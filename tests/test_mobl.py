@@ -43,6 +43,7 @@ def _max_diff(model, values, tendons, girdle):
 
 def test_shipped_model_is_generated_and_compiles(model):
     assert (MODELS_DIR / mobl.FILENAME).read_text() == mobl.model_xml(), "run python -m shoulder_bench.mobl"
+    assert (MODELS_DIR / mobl.TASK_FILENAME).read_text() == mobl.task_model_xml(), "run python -m shoulder_bench.mobl"
     assert model.ntendon == 6 and model.nu == 0 and model.neq == 11
     assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4 and not model.geom_contype.any()
 
@@ -233,3 +234,14 @@ def test_actuators_option_adds_one_per_tendon_and_changes_nothing_else():
     np.testing.assert_array_equal(m.actuator_trnid[:, 0], np.arange(6))
     assert (m.nq, m.nv, m.neq, m.nbody) == (m0.nq, m0.nv, m0.neq, m0.nbody)
     np.testing.assert_array_equal(m.tendon_lengthspring, m0.tendon_lengthspring)
+
+
+def test_scene_option_adds_what_rendering_needs_and_changes_nothing_else():
+    assert mobl.model_xml(scene=False) == mobl.model_xml()
+    m0 = mujoco.MjModel.from_xml_string(mobl.model_xml(locked_plane_deg=0.0, dynamics=True))
+    m = mujoco.MjModel.from_xml_string(mobl.model_xml(locked_plane_deg=0.0, dynamics=True, scene=True))
+    assert [m.camera(k).name for k in range(m.ncam)] == ["front", "back"] and m.nlight == 1 and m0.ncam == 0
+    assert m.ngeom == m0.ngeom + 1 and m.geom("floor").contype == 0 and m.geom("floor").conaffinity == 0
+    for field in ("body_pos", "body_quat", "body_mass", "jnt_axis", "eq_data", "tendon_lengthspring", "qpos0"):
+        np.testing.assert_array_equal(getattr(m, field), getattr(m0, field), err_msg=field)
+    assert (m.nq, m.nv, m.neq, m.ntendon, m.opt.timestep) == (m0.nq, m0.nv, m0.neq, m0.ntendon, m0.opt.timestep)
