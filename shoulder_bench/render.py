@@ -1,13 +1,16 @@
 """`shoulder-bench render`: a headless video of one episode (mp4, or GIF for READMEs).
 
-The episode runs in the task's own physics (0.1 s frames). A separate *render model* is built from the scene with
-`mujoco.MjSpec`: the same bones and spatial tendons (muscles), no actuators (so the process-global muscle callback is
-never involved), plus a translucent ghost humerus on its own hinge that shows the target angle. Each video frame copies
-the simulated angle (interpolated between frames with a cubic Hermite on angle and velocity, so the video runs in real
-time at any frame rate) into the render model's hinge, sets the ghost's hinge to the target, colours each muscle from
-pale to saturated red by its activation and runs kinematics only (`mj_forward`; the render model is never stepped), so
-the tendons wrap over the humeral head exactly as in the simulation. Text (time, angle, target, activations) is drawn
-with Pillow. The file is written to a temporary name beside `--out` and renamed when complete.
+The episode runs in the task's own physics (the locked v2 arm, `shoulder_bench.arm`; 0.1 s frames). A separate
+*render model* is built from the task model (`arm.MODEL_FILE`, which carries the scene: sky, floor, lights, cameras)
+with `mujoco.MjSpec`: the same bones, girdle couplings and spatial tendons (muscles), no actuators (so the
+process-global muscle callback is never involved), plus a translucent ghost humerus on a mocap body that shows the
+target elevation. Each video frame interpolates the simulated elevation between frames (a cubic Hermite on angle and
+velocity, so the video runs in real time at any frame rate) and poses the whole arm from it, the girdle on its coupling
+(`arm.LockedPath.qpos`); it puts the ghost where the humerus is at the target elevation (the humerus's pose from the
+same coupled kinematics, girdle included), colours each muscle from pale to saturated red by its activation (ld's
+three bundles ld1-ld3 by ld's one activation) and runs kinematics only (`mj_forward`; the render model is never
+stepped), so the tendons wrap exactly as in the simulation. Text (time, angle, target, activations) is drawn with
+Pillow. The file is written to a temporary name beside `--out` and renamed when complete.
 """
 from __future__ import annotations
 
@@ -28,6 +31,7 @@ SATURATED = np.array([0.90, 0.02, 0.02, 1.0])  # muscle at activation 1
 IDLE = np.array([0.60, 0.60, 0.60, 0.35])  # a muscle the task does not simulate
 GHOST_RGBA = (0.55, 0.85, 1.0, 0.22)
 GHOST_SCALE = 1.03  # slightly larger than the bone: no z-fighting where ghost and arm coincide
+GHOST = "ghost"  # the ghost's mocap body
 
 
 def add_parser(sub) -> None:
@@ -146,30 +150,55 @@ def _controller(policy: str | None, task: str | None) -> tuple[_Controller, str]
 
 # --- the render model ---------------------------------------------------------------------------------------------
 def build_render_model(width: int, height: int):
-    """(model, ghost hinge qpos address): the scene without actuators plus a translucent ghost humerus."""
+    """The task model (`arm.MODEL_FILE`, scene included) without actuators, plus a translucent ghost humerus: a mocap
+    body `GHOST` with a copy of the humerus's geoms, `GHOST_SCALE` larger (`_Poser` places it)."""
     import mujoco
 
-    from shoulder_bench.model import JOINT, SCENE_PATH
+    from shoulder_bench import arm
 
-    spec = mujoco.MjSpec.from_file(str(SCENE_PATH))
+    spec = mujoco.MjSpec.from_file(str(arm.MODEL_FILE))
     for act in list(spec.actuators):  # visual only: no user actuators, so the muscle callback never runs
         spec.delete(act)
     spec.visual.global_.offwidth = max(width, spec.visual.global_.offwidth)
     spec.visual.global_.offheight = max(height, spec.visual.global_.offheight)
-    humerus = spec.body("humerus")
-    hinge = spec.joint(JOINT)
-    src = next(m for m in spec.meshes if m.name == "humerus")
-    spec.add_mesh(name="ghost_humerus", file=src.file, scale=[GHOST_SCALE * s for s in src.scale])
-    ghost = spec.worldbody.add_body(name="ghost", pos=humerus.pos, quat=humerus.quat)
-    ghost.add_joint(name="ghost_abduction", type=mujoco.mjtJoint.mjJNT_HINGE, axis=hinge.axis, pos=hinge.pos)
-    ghost.add_geom(name="ghost_humerus", type=mujoco.mjtGeom.mjGEOM_MESH, meshname="ghost_humerus",
-                   rgba=GHOST_RGBA, contype=0, conaffinity=0, group=1)
+    bare = spec.compile()  # the humerus's geoms as compiled (a fromto capsule becomes pos, quat, size)
+    hum = bare.body("humerus").id
+    ghost = spec.worldbody.add_body(name=GHOST, mocap=True)
+    for g in np.flatnonzero((bare.geom_bodyid == hum) & (bare.geom_group == 1)):  # the bone, not the wrap geoms
+        size = bare.geom_size[g].copy()
+        if bare.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+            raise ValueError("render: a mesh humerus needs a scaled copy of its mesh for the ghost")
+        ghost.add_geom(name=f"ghost_{bare.geom(g).name}", type=bare.geom_type[g], size=GHOST_SCALE * size,
+                       pos=bare.geom_pos[g], quat=bare.geom_quat[g], rgba=GHOST_RGBA, contype=0, conaffinity=0,
+                       group=1)
     model = spec.compile()
     model.tendon_width[:] = np.maximum(model.tendon_width, 0.006)  # visible at README sizes
     # software rendering (EGL on CPU): shadow maps cost ~4x the frame and the floor is far below the view anyway
     model.light_castshadow[:] = 0
     model.mat_reflectance[:] = 0
-    return model, int(model.jnt_qposadr[model.joint("ghost_abduction").id])
+    return model
+
+
+class _Poser:
+    """Poses the render model: the arm at an elevation (the girdle on its coupling), the ghost at another."""
+
+    def __init__(self, model):
+        from shoulder_bench import arm
+
+        self.model, self.path = model, arm.LockedPath(model=model)  # the render model's own coupled kinematics
+        self.hum = model.body("humerus").id
+        self.mocap = int(model.body_mocapid[model.body(GHOST).id])
+
+    def pose(self, data, elevation_rad: float, target_rad: float) -> None:
+        """Set `data` (the render model's) to the arm at `elevation_rad` and the ghost at `target_rad`; then
+        mj_forward."""
+        import mujoco
+
+        g = self.path.pose(target_rad)  # the humerus where it is at the target elevation (girdle included)
+        data.mocap_pos[self.mocap] = g.xpos[self.hum]
+        data.mocap_quat[self.mocap] = g.xquat[self.hum]
+        data.qpos[:] = self.path.qpos(elevation_rad)[0]
+        mujoco.mj_forward(self.model, data)
 
 
 def _colour_scale(peak: float) -> float:
@@ -337,15 +366,19 @@ def render_video(out: Path | str, task: str | None = None, policy: str | None = 
 
     import mujoco
 
-    model, ghost_adr = build_render_model(width, height)
+    from shoulder_bench import arm
+
+    model = build_render_model(width, height)
     data = mujoco.MjData(model)
-    qadr = int(model.jnt_qposadr[model.joint("abduction").id])
-    ten_ids = [model.tendon(m).id for m in muscles]
+    poser = _Poser(model)
+    # each muscle's tendons (ld: ld1-ld3) and, per tendon, which of the task's activations colours it
+    tendons = [(model.tendon(t).id, k) for k, m in enumerate(muscles) for t in arm.ACTUATORS[m]]
+    ten_ids, ten_src = [t for t, _ in tendons], [k for _, k in tendons]
     model.tendon_rgba[:] = IDLE
 
     # simulate first (cheap next to rendering): the colour scale of the activations is then known for the video
     steps = min(target.frames, int(np.ceil(seconds / h - 1e-9)) + 1)
-    q, v = [float(physics.data.qpos[0])], [float(physics.data.qvel[0])]
+    q, v = [np.radians(physics.angle_deg())], [np.radians(physics.angular_velocity_deg())]  # the elevation
     acts: list[np.ndarray] = []  # activations in force during frame j
     crashed, errors = False, []
     t0 = time.perf_counter()
@@ -354,12 +387,12 @@ def render_video(out: Path | str, task: str | None = None, policy: str | None = 
         if np.issubdtype(spec_dtype, np.integer):
             action = np.rint(action)  # levels from a policy may come as floats
         ts = env.step(action.astype(spec_dtype))
-        if physics.failed() or not np.isfinite(physics.data.qpos[0]):
+        if physics.failed() or not np.isfinite(physics.data.qpos).all():
             crashed = True
             break
         acts.append(np.clip(physics.activations(muscles), 0.0, 1.0))
-        q.append(float(physics.data.qpos[0]))
-        v.append(float(physics.data.qvel[0]))
+        q.append(np.radians(physics.angle_deg()))
+        v.append(np.radians(physics.angular_velocity_deg()))
         errors.append(abs(physics.angle_deg() - env.task.target_deg()))
         if ts.last():
             break
@@ -391,10 +424,8 @@ def render_video(out: Path | str, task: str | None = None, policy: str | None = 
                     angle, a = q[-1], acts[-1] if acts else np.zeros(len(muscles))
                 tgt = _hermite(target.angle_deg[j], target.velocity_deg_s[j], target.angle_deg[j + 1],
                                target.velocity_deg_s[j + 1], s, h)
-                data.qpos[qadr] = angle
-                data.qpos[ghost_adr] = np.radians(tgt)
-                model.tendon_rgba[ten_ids] = PALE + np.minimum(a / scale, 1.0)[:, None] * (SATURATED - PALE)
-                mujoco.mj_forward(model, data)
+                poser.pose(data, angle, np.radians(tgt))
+                model.tendon_rgba[ten_ids] = PALE + np.minimum(a[ten_src] / scale, 1.0)[:, None] * (SATURATED - PALE)
                 renderer.update_scene(data, camera=camera)
                 frame = overlay.draw(renderer.render(), t, float(np.degrees(angle)), float(tgt), a,
                                      crashed and frozen)

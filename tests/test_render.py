@@ -100,3 +100,50 @@ def test_failure_while_rendering_leaves_no_partial_file(tmp_path, monkeypatch):
     with pytest.raises(RuntimeError, match="boom"):
         render_video(tmp_path / "x.mp4", seconds=1, width=W, height=H, fps=10)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_render_model_poses_arm_girdle_and_ghost_as_the_task_model():
+    """The rendered arm is the simulated one (girdle on its coupling) and the ghost is the humerus at the target."""
+    import mujoco
+
+    from shoulder_bench import arm
+
+    m = render.build_render_model(W, H)
+    assert m.nu == 0 and {m.camera(k).name for k in range(m.ncam)} >= set(render.CAMERAS)
+    d, poser, task = mujoco.MjData(m), render._Poser(m), arm.LockedPath()
+    for elevation, target in ((0, 150), (90, 30), (150, 90)):
+        poser.pose(d, np.radians(elevation), np.radians(target))
+        sim = task.pose(np.radians(elevation))
+        mujoco.mj_tendon(task.m, sim)
+        for b in ("clavicle", "scapula", "humerus"):
+            np.testing.assert_allclose(d.xpos[m.body(b).id], sim.xpos[task.m.body(b).id], atol=1e-12)
+            np.testing.assert_allclose(d.xquat[m.body(b).id], sim.xquat[task.m.body(b).id], atol=1e-12)
+        np.testing.assert_allclose(d.ten_length, sim.ten_length, atol=1e-12)
+        at = task.pose(np.radians(target))
+        hum = task.m.body("humerus").id
+        np.testing.assert_allclose(d.xpos[m.body(render.GHOST).id], at.xpos[hum], atol=1e-12)
+        np.testing.assert_allclose(d.xquat[m.body(render.GHOST).id], at.xquat[hum], atol=1e-12)
+    ghost = m.geom("ghost_humerus")
+    np.testing.assert_allclose(ghost.size, render.GHOST_SCALE * m.geom("humerus").size)
+    assert ghost.group == m.geom("humerus").group and ghost.rgba[3] < 0.5
+
+
+@pytest.mark.parametrize("task", ["abduction_4m", "abduction_ssp"])
+def test_muscles_coloured_by_their_activation_ld_bundles_by_ld(tmp_path, monkeypatch, task):
+    import mujoco
+
+    seen = []
+    update = mujoco.Renderer.update_scene
+
+    def spy(self, data, *a, **k):
+        seen.append({data.model.tendon(t).name: data.model.tendon_rgba[t].copy() for t in range(data.model.ntendon)})
+        return update(self, data, *a, **k)
+
+    monkeypatch.setattr(mujoco.Renderer, "update_scene", spy)
+    render_video(tmp_path / "x.mp4", task=task, seconds=0.5, width=W, height=H, fps=10)
+    rgba = seen[-1]
+    idle = [t for t, c in rgba.items() if np.allclose(c, render.IDLE, atol=1e-6)]
+    if task == "abduction_4m":
+        assert idle == [] and np.array_equal(rgba["ld1"], rgba["ld2"]) and np.array_equal(rgba["ld1"], rgba["ld3"])
+    else:
+        assert idle == ["isp", "dmi", "ld1", "ld2", "ld3"]
