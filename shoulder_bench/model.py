@@ -30,7 +30,7 @@ if not MODELS_DIR.is_dir():  # source checkout: models/ sits beside the package
 MODEL_PATH = MODELS_DIR / "shoulder.xml"
 SCENE_PATH = MODELS_DIR / "scene.xml"
 JOINT = "abduction"
-DEFAULT_MUSCLE_MODEL = "hill"  # tables from the thin-shell FEM (docs/fem.md); "hill" is the alternative
+DEFAULT_MUSCLE_MODEL = "fem"  # tables from the thin-shell FEM (docs/fem.md); "hill" is the alternative
 
 _LAWS: dict[int, tuple] = {}  # law id -> (ForceLaw, name of the joint it sees), one id per attach_law
 _law_ids = itertools.count(1)
