@@ -1,11 +1,13 @@
 """`shoulder-bench model validate [--model PATH] [--json] [--out DIR]`: the model against the reference moment arms
 and the literature targets of the model-v2 issue (docs/validation.md); exit status 1 when any target is missed.
 
-The default model is v1 (models/shoulder.xml, the tasks' model). `--model models/shoulder_v2.xml` validates the v2
-kinematic model instead (shoulder_bench.validate_v2): every moment-arm target in both candidate task planes, its
-force targets from a static rigid-tendon Hill estimate (shoulder_bench.statics_v2) until the FEM tables replace it.
+The default model is v2 (models/shoulder_v2.xml, the tasks' geometry: the tasks run its locked 1-DOF variant
+models/shoulder_v2_task.xml, shoulder_bench.arm), validated by shoulder_bench.validate_v2: every moment-arm target in
+both candidate task planes, its force targets from a static rigid-tendon Hill estimate (shoulder_bench.statics_v2),
+with the same force quantities of the tasks' own tables (FEM by default) shown beside them. `--model
+models/shoulder.xml` validates model v1 (the hand-placed hinge the tasks ran before, kept for comparison).
 
-Moment arms come from MuJoCo (the tendon Jacobian, `model.tendon_geometry`; r = -dL/dq, + elevates, as in the
+Moment arms come from MuJoCo (v1: the tendon Jacobian, `model.tendon_geometry`; r = -dL/dq, + elevates, as in the
 references); rest posture, passive torque, peak isometric torques, capacity and reach from the tabled force law.
 Every target is evaluated on what the model can pose; what it cannot (a plane, a girdle mode or a degree of freedom
 it lacks) fails with the reason, so a model that lacks it is never reported as meeting it.
@@ -47,6 +49,7 @@ PASSIVE_MAX_NM = 0.5
 PEAK_TORQUE_TOL = 0.30
 SIGN_MUSCLES = {"isp": "an external rotator", "ld": "an internal rotator"}
 TOL = 1e-9  # float slack on the bounds
+DEFAULT_MODEL = MODELS_DIR / "shoulder_v2.xml"  # the tasks' geometry (v2); v1 is MODEL_PATH, models/shoulder.xml
 DEFAULT_OUT = Path("runs/validation")  # --out: the figures go under runs/, the project's output folder
 NOT_MODELLED = "not modelled (v1: 1-DOF coronal hinge, fixed girdle)"
 # The plane of elevation (deg) of the tasks for the v2 model (None would mean not chosen: every target in the tasks'
@@ -92,7 +95,7 @@ class ModelView:
         return f"DOFs {dofs}; elevates in the {planes} plane; girdle {self.girdle}; tasks in plane {self.task_plane}"
 
 
-def inspect_model(path: Path | str = MODEL_PATH) -> ModelView:
+def inspect_model(path: Path | str = DEFAULT_MODEL) -> ModelView:
     m = compile_model(path)
     joints = [m.joint(j).name for j in range(m.njnt)]
     if joints == [JOINT] and np.allclose(m.jnt_axis[0], (1.0, 0.0, 0.0)):  # v1: abduction about +x (anterior)
@@ -189,14 +192,15 @@ def passive_torque(law, angle_deg) -> np.ndarray:
     return law.torque(a, np.zeros_like(a), np.zeros((len(a), len(law.muscles)))).sum(axis=1)
 
 
-def relaxed_rest_angle(law, step_deg: float = 0.1) -> float:
+def relaxed_rest_angle(law, step_deg: float = 0.1, gravity=v1_gravity_torque,
+                       range_deg: tuple = anatomy.JOINT_RANGE_DEG) -> float:
     """Where the relaxed arm (activations 0) settles when let go hanging (0 deg): the first angle, in the direction
-    the net torque (passive + gravity) pushes it, where that torque changes sign (linear interpolation), or the
-    joint limit it is pushed to."""
-    lo, hi = anatomy.JOINT_RANGE_DEG
+    the net torque (passive + `gravity(angle_rad)`, default v1's; `statics.gravity_torque` for the tasks' arm) pushes
+    it, where that torque changes sign (linear interpolation), or the end of `range_deg` it is pushed to."""
+    lo, hi = range_deg
 
     def net(deg):
-        return passive_torque(law, deg) + v1_gravity_torque(np.radians(deg))
+        return passive_torque(law, deg) + gravity(np.radians(deg))
 
     sign = 1.0 if float(net(0.0)[0]) >= 0 else -1.0  # sample only the side it is pushed to
     deg = np.arange(0.0, (hi if sign > 0 else -lo) + 1e-9, step_deg) * sign
@@ -312,24 +316,37 @@ def force_targets(rest_deg: float, passive_deg, passive_Nm, peaks: dict, cond: s
     return out
 
 
-def _force_targets(view, refs, law, cond) -> tuple[list[dict], dict]:
-    rest = relaxed_rest_angle(law)
+def law_quantities(law, refs, plane: int, gravity=v1_gravity_torque, range_deg: tuple = anatomy.JOINT_RANGE_DEG
+                   ) -> dict:
+    """The force quantities of a tabled law (muscles ssp, isp, dmi, ld) against `gravity`: relaxed rest angle, passive
+    torque over 0-20 deg, each muscle's peak isometric torque against F0 x the followed reference's peak moment arm in
+    `plane` (girdle coupled) and the ssp/dmi capacity ratio (JSON-ready)."""
+    rest = relaxed_rest_angle(law, gravity=gravity, range_deg=range_deg)
     pdeg = np.arange(0.0, PASSIVE_MAX_DEG + 1e-9, 0.5)
     passive = passive_torque(law, pdeg)
     iso = isometric_torque(law, FINE)
     peaks = {}
-    girdle_note = "" if view.girdle == "coupled" else f"model girdle {view.girdle}"
     for i, m in enumerate(law.muscles):
         k = int(np.argmax(np.abs(iso[:, i])))
         ref = references.FOLLOWS[m][0]
-        r_peak, at = refs.peak(ref, m, "shoulder_elv", view.task_plane, "coupled", ELEVATIONS)
+        r_peak, at = refs.peak(ref, m, "shoulder_elv", plane, "coupled", ELEVATIONS)
         expected = anatomy.F0[m] * r_peak / 1000.0
         ratio = float(iso[k, i] / expected) if expected else None  # a reference without moment arm: no target
         peaks[m] = {"peak_Nm": float(iso[k, i]), "at_deg": float(FINE[k]), "follows": ref, "ref_peak_mm": r_peak,
                     "ref_peak_deg": at, "F0_N": anatomy.F0[m], "expected_Nm": expected, "ratio": ratio}
-    out = force_targets(rest, pdeg, passive, peaks, cond, peak_note=girdle_note)
-    return out, {"relaxed_rest_deg": rest, "passive_angle_deg": pdeg.tolist(),
-                 "passive_torque_Nm": passive.round(4).tolist(), "peak_isometric_torque": peaks}
+    cap = isometric_torque(law, [0.0, 5.0, 10.0])
+    i_s, i_d = law.muscles.index("ssp"), law.muscles.index("dmi")
+    return {"relaxed_rest_deg": rest, "passive_angle_deg": pdeg.tolist(),
+            "passive_torque_Nm": passive.round(4).tolist(), "peak_isometric_torque": peaks,
+            "capacity_ratio_ssp_dmi": {f"{a:g}": float(cap[j, i_s] / cap[j, i_d]) for j, a in enumerate((0, 5, 10))}}
+
+
+def _force_targets(view, refs, law, cond) -> tuple[list[dict], dict]:
+    q = law_quantities(law, refs, view.task_plane)
+    girdle_note = "" if view.girdle == "coupled" else f"model girdle {view.girdle}"
+    out = force_targets(q["relaxed_rest_deg"], q["passive_angle_deg"], q["passive_torque_Nm"],
+                        q["peak_isometric_torque"], cond, peak_note=girdle_note)
+    return out, q
 
 
 def _sign_targets(view, refs, curve_of) -> list[dict]:
@@ -357,15 +374,16 @@ def _shown(path) -> str:
     return f"models/{path.name}" if path.resolve().parent == MODELS_DIR.resolve() else str(path)
 
 
-def evaluate(muscle_model: str = DEFAULT_MUSCLE_MODEL, path: Path | str = MODEL_PATH) -> dict:
-    """Every quantity and target, as one JSON-ready dict; `passed` is True only if every target passed."""
+def evaluate(muscle_model: str = DEFAULT_MUSCLE_MODEL, path: Path | str = DEFAULT_MODEL) -> dict:
+    """Every quantity and target, as one JSON-ready dict; `passed` is True only if every target passed. `path`:
+    default v2 (the tasks' geometry); MODEL_PATH for v1."""
     from shoulder_bench.muscle import ForceLaw
 
     view = inspect_model(path)
     if view.version == "2":
         from shoulder_bench import validate_v2
 
-        return validate_v2.evaluate(view, _shown(path), path)
+        return validate_v2.evaluate(view, _shown(path), path, muscle_model)
     refs = references.load()
     arms, fine = model_moment_arms(ELEVATIONS, path), model_moment_arms(FINE, path)
     law = ForceLaw.load(muscle_model)
@@ -375,8 +393,6 @@ def evaluate(muscle_model: str = DEFAULT_MUSCLE_MODEL, path: Path | str = MODEL_
     early = _early_targets(lambda m, g: model_curve(view, fine, m, "shoulder_elv", view.task_plane, g), view.missing,
                            PLANE_NAMES.get(view.task_plane, view.task_plane))
     targets = _moment_arm_targets(view, refs, arms, cond) + early + forces + signs
-    cap = isometric_torque(law, [0.0, 5.0, 10.0])
-    i_s, i_d = law.muscles.index("ssp"), law.muscles.index("dmi")
     return {
         "model": {"path": _shown(path), "version": anatomy.MODEL_VERSION, "muscle_model": muscle_model,
                   "description": view.describe(), "girdle": view.girdle, "task_plane_deg": view.task_plane,
@@ -385,7 +401,6 @@ def evaluate(muscle_model: str = DEFAULT_MUSCLE_MODEL, path: Path | str = MODEL_
         "envelope_excluded": references.ENVELOPE_EXCLUDED,
         "moment_arms": moment_arm_section(view, refs, arms),
         **quantities,
-        "capacity_ratio_ssp_dmi": {f"{a:g}": float(cap[j, i_s] / cap[j, i_d]) for j, a in enumerate((0, 5, 10))},
         "ssp_static_reach_deg": static_reach(ForceLaw.load(muscle_model, muscles=("ssp",))),
         "humerus_mass_kg": anatomy.HUMERUS_MASS,
         "targets": targets,
@@ -398,8 +413,8 @@ def _run(args) -> int:
 
     out = output_folder(args.out, "--out")
     if not Path(args.model).is_file():
-        raise FileNotFoundError(f"--model {args.model}: no such file; give an MJCF (models/shoulder.xml, the default, "
-                                "or models/shoulder_v2.xml)")
+        raise FileNotFoundError(f"--model {args.model}: no such file; give an MJCF (models/shoulder_v2.xml, the "
+                                "default, or models/shoulder.xml)")
     from shoulder_bench.validate_report import print_report, write_figures
 
     report = evaluate(args.muscle_model, args.model)
@@ -418,14 +433,16 @@ def add_parser(subparsers):
     sub = p.add_subparsers(dest="model_command", required=True, metavar="SUBCOMMAND")
     v = sub.add_parser("validate", help="moment arms against the MoBL-ARMS, MyoArm and OpenSim references, rest "
                        "posture, passive and peak torques; overlay figures; exit status 1 when a target is missed")
-    v.add_argument("--model", type=Path, default=MODEL_PATH, metavar="PATH",
-                   help="the MJCF to validate: v1 (default, models/shoulder.xml, the tasks' model) or the v2 "
-                   "kinematic model (models/shoulder_v2.xml: geometry, forces by a static estimate)")
+    v.add_argument("--model", type=Path, default=DEFAULT_MODEL, metavar="PATH",
+                   help="the MJCF to validate: v2 (default, models/shoulder_v2.xml, the geometry of the tasks' locked "
+                   "variant; force targets by a static estimate, the tasks' tables shown beside) or v1 "
+                   "(models/shoulder.xml, kept for comparison)")
     v.add_argument("--json", action="store_true", help="print one JSON object instead of the tables")
     v.add_argument("--out", type=Path, default=DEFAULT_OUT, help="folder for the figures validate_<muscle>.png "
                    "(v2: validate_v2_<muscle>.png; default: %(default)s, under the current folder, as the other "
                    "commands' runs/...; created if missing)")
     v.add_argument("--muscle-model", choices=MUSCLE_MODELS, default=DEFAULT_MUSCLE_MODEL,
-                   help="muscle tables for the force quantities (default: %(default)s)")
+                   help="muscle tables for the force quantities (v1: its tables; v2: the tasks' tables shown beside "
+                   "the static estimate; default: %(default)s)")
     v.set_defaults(func=_run)
     return p

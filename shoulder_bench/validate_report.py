@@ -93,6 +93,9 @@ def _say_targets(r, say):
             coupled = f"; {_coupled(res['coupled'])}" if "coupled" in res else ""
             say(f"       {PLANE_NAMES[int(plane)]} ({plane} deg) {'pass' if res['passed'] else 'FAIL'}: "
                 f"{res['measured']}{bound}{coupled}")
+        if t.get("tables"):  # v2: the tasks' own tables' value beside a force target (no target)
+            tab = t["tables"]
+            say(f"       {tab['label']}, shown, no target: {'pass' if tab['passed'] else 'FAIL'}: {tab['measured']}")
         if t["note"]:
             say(f"       {t['note']}")
     for f in r.get("figures", []):
@@ -122,8 +125,8 @@ def _two_plane_table(say, ma, rows, label_width=22):
 def _print_v2(r, say):
     mod, ma = r["model"], r["moment_arms"]
     short, girdles = references.SHORT, references.GIRDLES
-    say(f"shoulder-bench model validate: {mod['path']} (model v2, kinematic, not used by the tasks; forces by a static "
-        "estimate)")
+    say(f"shoulder-bench model validate: {mod['path']} (model v2, the tasks' geometry: the tasks run its locked 1-DOF "
+        f"variant {mod['tasks_model']}; force targets judged on a static estimate, the tasks' tables shown beside)")
     say(f"model: {mod['description']}")
     _say_references(r, say)
     say("v2 muscles: " + "; ".join(f"{m} = " + " + ".join(f"{w:.3f} {t}" for t, w in ws.items())
@@ -192,6 +195,25 @@ def _say_v2_quantities(r, say):
     line(f"ssp static reach with the {r['humerus_mass_kg']:.3g} kg humerus", lambda s: (
         "none" if s["ssp_static_reach_deg"] is None else f"{s['ssp_static_reach_deg']:.1f} deg"))
     line("fibre stretch at 0 deg", lambda s: ", ".join(f"{t} {v:.3f}" for t, v in s["lam_at_0"].items()))
+    tab = r.get("tables")
+    if tab is None:
+        return
+    plane = f"{PLANE_NAMES[tab['plane_deg']]} ({tab['plane_deg']} deg)"
+    say(f"\nQuantities, {tab['label']}: {tab['folder']}/<tendon>_{tab['muscle_model']}.npz on {tab['model']}, "
+        f"{plane} plane, rotation 0, girdle coupled; information, the targets judge the estimate above")
+    p = tab["passive_torque_Nm"]
+    k = int(np.argmax(np.abs(p)))
+    say(f"relaxed rest angle (activations 0): {tab['relaxed_rest_deg']:.1f} deg")
+    say(f"net passive torque over 0-{PASSIVE_MAX_DEG:g} deg: {p[0]:+.2f} N m at 0 deg, largest |torque| {p[k]:+.2f} "
+        f"N m at {tab['passive_angle_deg'][k]:g} deg")
+    say("peak isometric torque (a = 1 minus a = 0, 0-120 deg): " + ", ".join(
+        f"{m} {q['peak_Nm']:+.2f} N m at {q['at_deg']:g} deg (ratio {q['ratio']:.2f})"
+        for m, q in tab["peak_isometric_torque"].items()))
+    say("ssp/dmi isometric torque ratio: " + ", ".join(f"{a} deg {v:.2f}" for a, v in
+                                                        tab["capacity_ratio_ssp_dmi"].items()))
+    reach = tab["ssp_static_reach_deg"]
+    say(f"ssp static reach with the {r['humerus_mass_kg']:.3g} kg humerus: "
+        + ("none" if reach is None else f"{reach:.1f} deg"))
 
 
 def _draw_references(ax, m: str, x, curves: dict) -> None:

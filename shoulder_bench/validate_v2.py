@@ -1,5 +1,7 @@
-"""`shoulder-bench model validate --model models/shoulder_v2.xml`: the v2 kinematic model's geometry against the
-reference moment arms and the model-v2 issue's targets (docs/validation.md).
+"""`shoulder-bench model validate` (default `--model models/shoulder_v2.xml`): the v2 model's geometry against the
+reference moment arms and the model-v2 issue's targets (docs/validation.md). `models/shoulder_v2.xml` is the 3-DOF
+model; the tasks run its locked 1-DOF variant (`models/shoulder_v2_task.xml`, coronal plane, rotation 0, the same
+generator and paths: shoulder_bench.arm), which validate does not take itself (it lacks the rotation and plane DOFs).
 
 Moment arms come from `shoulder_bench.kinematics.moment_arms` (the reference tables' own method: GH coordinates set,
 slaved girdle coordinates from the model's equality polynomials, central differences h = 0.25 deg, one-sided across a
@@ -14,10 +16,13 @@ ones; the report adds the envelope without MyoArm (`envelope_without_myoarm`, sh
 
 The tasks' plane of elevation for v2 is `validate.TASK_PLANE_V2` (None: not chosen). Every target in the tasks'
 plane is evaluated in both candidate planes and shown per plane; it passes only in the chosen plane, so with None it
-fails with "tasks' plane not chosen yet". v2 has no actuators or force tables yet: the force targets (rest angle,
-passive torque, peak isometric torques) and the capacity ratio and ssp's reach come from `shoulder_bench.statics_v2`,
-a static rigid-tendon Hill estimate with the parent's parameters and the Blemker curves (statics_v2.LABEL), per
-candidate plane, combined like the moment-arm targets; the FEM tables replace it later.
+fails with "tasks' plane not chosen yet". The force targets (rest angle, passive torque, peak isometric torques) and
+the capacity ratio and ssp's reach are judged on `shoulder_bench.statics_v2`, a static rigid-tendon Hill estimate with
+the parent's parameters and the Blemker curves (statics_v2.LABEL), per candidate plane, combined like the moment-arm
+targets. The same quantities of the tasks' own tables (`arm.arm().load_law(muscle_model)`: models/muscles_v2, FEM by
+default, built for the tasks' plane only, against the tasks' arm's gravity) are shown beside each force target under
+`tables` (no target): the tables exist for one plane and carry the FEM's square-sheet placeholder footprint
+(docs/fem.md, "v2 sheets"), so the targets keep judging the two-plane estimate (docs/validation.md).
 """
 from __future__ import annotations
 
@@ -34,6 +39,10 @@ TAUTOLOGY = ("v2's geometry is MyoArm's, reconstructed exactly (docs/model_v2.md
              "their references; the informative comparisons are the parent's and OpenSim's (their RMSE; the "
              "envelope w/o MyoArm)")
 PLANES = tuple(references.PLANES.values())
+TABLE_LABELS = {"fem": "FEM tables (the tasks' muscles)", "hill": "Hill tables (the tasks' alternative muscles)"}
+FORCE_NOTE = ("judged on the static rigid-tendon Hill estimate (parent's parameters, Blemker curves; both planes); the "
+              "tasks' tables are shown beside it, no target")
+FORCE_IDS = ("rest_angle", "passive_torque", *(f"peak_torque/{m}" for m in anatomy.MUSCLES))
 FORCE_QUANTITIES = ("relaxed_rest_deg", "passive_angle_deg", "passive_torque_Nm", "peak_isometric_torque",
                     "capacity_ratio_ssp_dmi", "ssp_static_reach_deg")
 
@@ -129,15 +138,36 @@ def combine(per_plane: dict[int, list[dict]], task_plane: int | None) -> list[di
 
 def _force_targets(summary: dict, cond: str) -> list[dict]:
     """v1's force targets on one plane's static estimate (`statics_v2.summary`), each noted with its method."""
-    from shoulder_bench.statics_v2 import LABEL
-
     return V.force_targets(summary["relaxed_rest_deg"], summary["passive_angle_deg"], summary["passive_torque_Nm"],
-                           summary["peak_isometric_torque"], cond, note=LABEL)
+                           summary["peak_isometric_torque"], cond, note=FORCE_NOTE)
 
 
-def evaluate(view: V.ModelView, shown: str, path) -> dict:
+def tables_section(muscle_model: str, refs, task_plane: int | None, cond: str) -> dict | None:
+    """The force quantities of the tasks' own tables (`arm.arm().load_law(muscle_model)`, the locked variant
+    models/shoulder_v2_task.xml, gravity `statics.gravity_torque`), as `statics_v2.summary` gives them for the
+    estimate, and the force targets evaluated on them (shown, no target). None when the tasks' plane is not the tables'
+    plane (or not chosen)."""
+    from shoulder_bench import arm as A
+    from shoulder_bench import statics, statics_v2
+
+    if task_plane is None or task_plane != A.TASK_PLANE_DEG:
+        return None
+    law = A.arm().load_law(muscle_model)
+    q = V.law_quantities(law, refs, task_plane, gravity=statics.gravity_torque, range_deg=statics_v2.RANGE_DEG)
+    reach = V.static_reach(A.arm().load_law(muscle_model, ("ssp",)), gravity=statics.gravity_torque,
+                           top_deg=statics_v2.RANGE_DEG[1])
+    label = TABLE_LABELS.get(muscle_model, f"{muscle_model} tables (the tasks' muscles)")
+    rows = V.force_targets(q["relaxed_rest_deg"], q["passive_angle_deg"], q["passive_torque_Nm"],
+                           q["peak_isometric_torque"], cond)
+    return {"label": label, "muscle_model": muscle_model, "model": f"models/{A.MODEL_FILE.name}",
+            "folder": f"models/{A.TABLE_FOLDER.name}", "plane_deg": task_plane, **q, "ssp_static_reach_deg": reach,
+            "targets": {t["id"]: {"passed": t["passed"], "measured": t["measured"]} for t in rows}}
+
+
+def evaluate(view: V.ModelView, shown: str, path, muscle_model: str = "fem") -> dict:
     """The v2 report (the same keys as v1's; the force quantities are the tasks' plane's, None while it is not
-    chosen; every plane's under `statics`)."""
+    chosen; every plane's under `statics`; the tasks' `muscle_model` tables' under `tables`, and beside each force
+    target)."""
     from shoulder_bench import statics_v2
 
     model = compile_model(path)
@@ -152,12 +182,19 @@ def evaluate(view: V.ModelView, shown: str, path) -> dict:
     forces = {p: _force_targets(statics[p], cond) for p in PLANES}
     arm_targets = combine({p: r[0] for p, r in results.items()}, tp)
     sign_targets = combine({p: r[1] for p, r in results.items()}, tp)
-    targets = arm_targets + combine(forces, tp) + sign_targets
+    tables = tables_section(muscle_model, refs, tp, cond)
+    force_targets = combine(forces, tp)
+    for t in force_targets:  # the tasks' tables' value beside each force target (no target)
+        assert t["id"] in FORCE_IDS, t["id"]
+        if tables is not None:
+            t["tables"] = {"label": tables["label"], **tables["targets"][t["id"]]}
+    targets = arm_targets + force_targets + sign_targets
     per_plane = {str(p): {"passed": sum(t["passed"] for t in r[0] + r[1]), "of": len(r[0] + r[1]),
                           "force_passed": sum(t["passed"] for t in forces[p]), "force_of": len(forces[p])}
                  for p, r in results.items()}
     return {
-        "model": {"path": shown, "version": "2", "kinematic_only": True, "muscle_model": None,
+        "model": {"path": shown, "version": "2", "kinematic_only": True, "muscle_model": muscle_model,
+                  "tasks_model": "models/shoulder_v2_task.xml",
                   "description": view.describe(), "girdle": view.girdle, "task_plane_deg": tp,
                   "coordinates": list(view.coordinates), "planes_deg": list(view.planes),
                   "tendons": {m: refs.v2_weights(m) for m in anatomy.MUSCLES}, "note": TAUTOLOGY},
@@ -166,6 +203,7 @@ def evaluate(view: V.ModelView, shown: str, path) -> dict:
         "moment_arms": moment_arm_section(refs, grid, fine, bundles),
         **{k: None if tp is None else statics[tp][k] for k in FORCE_QUANTITIES},
         "statics": {"method": statics_v2.LABEL, "planes": {str(p): v for p, v in statics.items()}},
+        "tables": tables,
         "humerus_mass_kg": float(model.body("humerus").mass[0]),
         "per_plane_passed": per_plane,
         "targets": targets,

@@ -7,6 +7,8 @@ import pytest
 from shoulder_bench import anatomy, cli, references, statics, validate, validate_v2
 from shoulder_bench.model import tendon_geometry
 
+V1_PATH = validate.MODEL_PATH  # models/shoulder.xml, model v1 (kept for comparison)
+V2_PATH = validate.MODEL_PATH.parent / "shoulder_v2.xml"  # the tasks' geometry, the default --model
 MGC = anatomy.HUMERUS_MASS * statics.GRAVITY * np.linalg.norm(anatomy.HUMERUS_COM)  # gravity torque at 90 deg
 
 
@@ -111,8 +113,18 @@ def test_rest_angle_reach_and_passive_on_a_known_law():
     np.testing.assert_allclose(validate.passive_torque(_ConstantLaw(0.3, active=5), [0, 10, 20]), 0.3)
 
 
+def test_the_default_model_is_v2_the_tasks_geometry():
+    from shoulder_bench import arm
+
+    assert validate.DEFAULT_MODEL == V2_PATH and V2_PATH.is_file()
+    assert validate.inspect_model().version == "2" and validate.inspect_model(V1_PATH).version == "1"
+    # the tasks' model is v2's locked variant, generated from the same source as the validated file
+    assert arm.MODEL_FILE.name == "shoulder_v2_task.xml" and arm.MODEL_VERSION == "2"
+    assert arm.TASK_PLANE_DEG == validate.TASK_PLANE_V2
+
+
 def test_not_modelled_conditions_give_no_curve():
-    view = validate.inspect_model()
+    view = validate.inspect_model(V1_PATH)
     arms = {"ssp": np.ones(3)}
     assert validate.model_curve(view, arms, "ssp", "shoulder_elv", view.task_plane, view.girdle) == (arms["ssp"], "")
     missing = [c for c in references.COORDINATES if c not in view.coordinates]
@@ -150,8 +162,10 @@ def _run(argv, capsys):
 
 
 def test_command_end_to_end(tmp_path, capsys, monkeypatch):
-    rc, out = _run(["model", "validate", "--json", "--out", str(tmp_path / "figs")], capsys)
+    # model v1, kept for comparison: --model models/shoulder.xml
+    rc, out = _run(["model", "validate", "--model", str(V1_PATH), "--json", "--out", str(tmp_path / "figs")], capsys)
     report = json.loads(out.out)
+    assert report["model"]["version"] == "1" and report["model"]["path"] == "models/shoulder.xml"
     for key in ("model", "follows", "envelope_excluded", "moment_arms", "relaxed_rest_deg", "passive_torque_Nm",
                 "peak_isometric_torque", "capacity_ratio_ssp_dmi", "ssp_static_reach_deg", "targets", "passed",
                 "figures"):
@@ -184,7 +198,7 @@ def test_command_end_to_end(tmp_path, capsys, monkeypatch):
         assert f.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and f.stat().st_size > 10_000
 
     monkeypatch.chdir(tmp_path)  # the default --out: runs/validation under the current folder, not the folder itself
-    rc_text, out = _run(["model", "validate"], capsys)
+    rc_text, out = _run(["model", "validate", "--model", str(V1_PATH)], capsys)
     assert rc_text == rc
     assert sorted(f.name for f in (tmp_path / "runs" / "validation").iterdir()) == [f.name for f in figures]
     assert not list(tmp_path.glob("*.png"))
@@ -203,9 +217,7 @@ def test_command_rejects_a_file_as_out_before_any_work(tmp_path, capsys):
     assert f.read_text() == "x"
 
 
-# --- the v2 kinematic model (--model models/shoulder_v2.xml) ---------------------------------------------------
-
-V2_PATH = validate.MODEL_PATH.parent / "shoulder_v2.xml"
+# --- model v2 (the default, models/shoulder_v2.xml: the geometry of the tasks' locked variant) -------------------
 
 
 @pytest.fixture(scope="module")
@@ -258,9 +270,51 @@ def test_v2_force_targets_are_the_static_estimate_per_plane(v2_report):
     for tid in force:  # the tasks' plane decides; both planes shown, the method named
         t = by_id[tid]
         assert (t["passed"], t["measured"]) == (t["planes"][chosen]["passed"], t["planes"][chosen]["measured"])
-        assert set(t["planes"]) == {"0", "30"} and t["note"] == statics_v2.LABEL
+        assert set(t["planes"]) == {"0", "30"} and t["note"] == validate_v2.FORCE_NOTE
+        assert "static rigid-tendon Hill estimate" in t["note"]
     for key in validate_v2.FORCE_QUANTITIES:  # the top-level quantities are the tasks' plane's
         assert v2_report[key] == v2_report["statics"]["planes"][chosen][key], key
+
+
+def test_v2_shows_the_tasks_fem_tables_beside_the_force_targets(v2_report):
+    from shoulder_bench.arm import arm
+    from shoulder_bench.muscle import MuscleTable
+
+    tab = v2_report["tables"]
+    assert tab["label"] == "FEM tables (the tasks' muscles)" and tab["muscle_model"] == "fem"
+    assert tab["model"] == "models/shoulder_v2_task.xml" and tab["plane_deg"] == validate.TASK_PLANE_V2 == 0
+    by_id = {t["id"]: t for t in v2_report["targets"]}
+    for tid in validate_v2.FORCE_IDS:  # beside every force target, never deciding it
+        t = by_id[tid]
+        assert t["tables"] == {"label": tab["label"], **tab["targets"][tid]}
+        assert t["passed"] == t["planes"][str(validate.TASK_PLANE_V2)]["passed"]
+    assert by_id["rest_angle"]["tables"]["measured"] == f"{tab['relaxed_rest_deg']:.1f} deg"
+    # the peaks against the shipped tables themselves (5-deg grid, the tables' own torque; ld = ld1 + ld2 + ld3)
+    folder = validate.MODEL_PATH.parent / "muscles_v2"
+    for m, tendons in (("ssp", ["ssp"]), ("isp", ["isp"]), ("dmi", ["dmi"]), ("ld", ["ld1", "ld2", "ld3"])):
+        tables = [MuscleTable.load(folder / f"{t}_fem.npz") for t in tendons]
+        ang = np.asarray(tables[0].angle_deg)
+        sel = (ang >= 0) & (ang <= 120)
+        iso = sum(np.asarray(tb.torque_Nm)[:, -1] - np.asarray(tb.torque_Nm)[:, 0] for tb in tables)[sel]
+        peak = tab["peak_isometric_torque"][m]
+        k = int(np.argmax(np.abs(iso)))
+        assert abs(peak["peak_Nm"]) >= abs(iso[k]) - 1e-6, m  # the 1-deg search finds at least the grid's peak
+        assert peak["peak_Nm"] == pytest.approx(iso[k], rel=0.05), m
+        assert abs(peak["at_deg"] - ang[sel][k]) <= 5.0, m
+    # the rest angle: net torque (passive + the tasks' arm's gravity) crosses zero there, pushing up below it
+    law, g = arm().load_law("fem"), statics.gravity_torque
+    rest = tab["relaxed_rest_deg"]
+    below, above = np.radians([rest - 0.5]), np.radians([rest + 0.5])
+    assert validate.passive_torque(law, np.degrees(below))[0] + g(below)[0] > 0
+    assert validate.passive_torque(law, np.degrees(above))[0] + g(above)[0] < 0
+    assert tab["passive_torque_Nm"][0] == pytest.approx(validate.passive_torque(law, [0.0])[0], abs=1e-4)
+    # ssp's static reach: ssp alone holds every angle from 0 up to it, not 0.2 deg above it
+    ssp = arm().load_law("fem", ("ssp",))
+    reach = tab["ssp_static_reach_deg"]
+    upto = np.radians(np.arange(0.0, reach + 1e-9, 0.1))
+    assert (validate.static_capacity(ssp, upto) >= -g(upto)).all()
+    over = np.radians([reach + 0.1, reach + 0.2])
+    assert not (validate.static_capacity(ssp, over) >= -g(over)).all()
 
 
 def test_v2_targets_are_decided_in_the_tasks_plane_and_shown_in_both(v2_report):
@@ -304,11 +358,12 @@ def test_v2_start_of_abduction_is_judged_girdle_fixed_with_coupled_shown(v2_repo
 
 
 def test_v2_command_end_to_end(tmp_path, capsys, v2_report):
-    rc, out = _run(["model", "validate", "--model", str(V2_PATH), "--json", "--out", str(tmp_path)], capsys)
+    rc, out = _run(["model", "validate", "--json", "--out", str(tmp_path)], capsys)  # the default --model: v2
     report = json.loads(out.out)
     assert rc == 1 and report["passed"] is False and report["model"]["version"] == "2"
+    assert report["model"]["path"] == "models/shoulder_v2.xml"
     assert [t["id"] for t in report["targets"]] == [t["id"] for t in v2_report["targets"]]
-    v1_ids = [t["id"] for t in validate.evaluate()["targets"]]
+    v1_ids = [t["id"] for t in validate.evaluate(path=V1_PATH)["targets"]]
     assert [t["id"] for t in report["targets"]] == v1_ids  # the same targets as v1
     rows = report["moment_arms"]["rmse"]
     assert len(rows) == len(anatomy.MUSCLES) * 3 * 2 * 2 and all(r["rmse_mm"]["mobl_arms"] is not None for r in rows)
@@ -324,6 +379,10 @@ def test_v2_command_end_to_end(tmp_path, capsys, v2_report):
     failed = sum(not t["passed"] for t in report["targets"])
     assert rc == (1 if failed else 0) and sum(x.startswith("[FAIL]") for x in lines) == failed
     assert "close to a tautology" in out.out and "tasks' plane not chosen yet" not in out.out
+    assert "not used by the tasks" not in out.out and "models/shoulder_v2_task.xml" in out.out
+    fem = [x for x in lines if x.startswith("       FEM tables (the tasks' muscles), shown, no target: ")]
+    assert len(fem) == len(validate_v2.FORCE_IDS)
+    assert "Quantities, FEM tables (the tasks' muscles)" in out.out
     per_plane = [sum(x.startswith(f"       {n} ({p} deg) ") for x in lines) for n, p in references.PLANES.items()]
     assert per_plane == [22, 22]  # each target in the tasks' plane, shown in both candidates
     assert "not yet" not in out.out
