@@ -1,9 +1,9 @@
 """How far can a task's muscles follow the fixed test set at all? Static capacity and the activation-rate limit.
 
-For every frame of the 100 test trajectories: can the muscles hold the arm at the target angle within activation 1
-(static capacity against gravity, on the tasks' arm), and does holding it from one frame to the next need an activation change above the
-protocol's 1 % per frame? Both are quasi-static estimates (they ignore acceleration), i.e. optimistic about what a
-controller can do.
+For every frame of the 100 test trajectories: can the muscles of the tasks' arm hold it at the target angle within
+activation 1 (static capacity against gravity), and does holding it from one frame to the next need an activation
+change above the protocol's 1 % per frame? Both are quasi-static estimates (they ignore acceleration), i.e.
+optimistic about what a controller can do.
 
     python benchmarks/feasibility.py [--muscles ssp] [--muscle-model fem|hill]
 """
@@ -41,7 +41,7 @@ def main() -> None:
     rate = np.abs(np.diff(hold, axis=1)).max(axis=2) > 0.01
     print(f"test frames the muscles cannot hold even at activation 1: {unreachable.mean():.1%}")
     print(f"test steps whose holding activation changes faster than 1 %/frame: {rate.mean():.1%}")
-    top = static_reach(law, gravity=statics.gravity_torque)  # held at rest at every angle from 0 up to top (0.1 deg grid)
+    top = static_reach(law, gravity=statics.gravity_torque)  # held at rest at every angle from 0 up to top (0.1 deg)
     target = np.degrees(allang)
     print(f"highest angle held at rest: {top:.1f} deg; quasi-static lower bound on the test MAE (targets above it "
           f"cannot be reached for long): {np.maximum(target - top, 0).mean():.2f} deg")

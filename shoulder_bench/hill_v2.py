@@ -31,9 +31,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from shoulder_bench import anatomy, mobl, references, statics_v2, tendons
+from shoulder_bench import anatomy, arm, mobl, references, statics_v2, tendons
 from shoulder_bench.hill import ACTIVATION_GRID, ANGLE_GRID_DEG
-from shoulder_bench.model import MODELS_DIR, attach_law, compile_model, install_callbacks, tendon_jacobian
+from shoulder_bench.model import MODELS_DIR, attach_law, compile_model, install_callbacks
 from shoulder_bench.muscle import ForceLaw, replacing, table_path
 
 FOLDER = MODELS_DIR / "muscles_v2"
@@ -53,15 +53,7 @@ def default_plane() -> int:
 
 def geometry(plane_deg: float, angle_deg=ANGLE_GRID_DEG) -> tuple[np.ndarray, np.ndarray]:
     """(lengths (K, 6) m, total coupled moment arms r = -ten_J S (K, 6) m) of the locked variant, TENDONS order."""
-    path = statics_v2.LockedPath(plane_deg)
-    tid = [path.m.tendon(t).id for t in TENDONS]
-    L, r = np.zeros((len(angle_deg), len(TENDONS))), np.zeros((len(angle_deg), len(TENDONS)))
-    for k, q in enumerate(np.radians(angle_deg)):
-        d = path.pose(q)
-        mujoco.mj_tendon(path.m, d)
-        L[k] = d.ten_length[tid]
-        r[k] = -(tendon_jacobian(path.m, d)[tid] @ path.slopes(q))
-    return L, r
+    return statics_v2.LockedPath(plane_deg).tendon_geometry(angle_deg, TENDONS)
 
 
 def tables(plane_deg: float) -> dict[str, dict]:
@@ -74,7 +66,7 @@ def tables(plane_deg: float) -> dict[str, dict]:
         f = np.stack([statics_v2.tendon_force(L[:, k], p, a) for a in ACTIVATION_GRID], axis=1)
         meta = {"model": "hill", "source": "hill", "muscle": t, "parent_muscle": PARENT_MUSCLE[t],
                 "model_file": f"mobl.model_xml(locked_plane_deg={plane_deg:g})", "plane_deg": float(plane_deg),
-                "joint": statics_v2.GIRDLE_DRIVER, "girdle": "coupled",
+                "joint": arm.JOINT, "girdle": "coupled",
                 "law": "statics_v2.tendon_force: rigid tendon, constant-width pennation, Blemker curves "
                        "(fem.material), F = F0 (a f_active + f_passive) cos(pennation)",
                 "moment_arm": "-ten_J S (tendon Jacobian along the coupling slopes), the total coupled arm",
@@ -101,20 +93,24 @@ def build_tables(plane_deg: float | None = None, folder: Path | None = None) -> 
     return written
 
 
-def load_law(plane_deg: float | None = None, folder: Path | None = None) -> ForceLaw:
-    """The v2 tables as a `ForceLaw` (`ForceLaw.load` on the v2 folder), checked against the locked variant's
-    coupled moment arms in `plane_deg` (`geometry`) and refused if built for another plane."""
-    plane = default_plane() if plane_deg is None else plane_deg
-    fix = f"rebuild with `python -m shoulder_bench.hill_v2 --plane {plane:g}`"
+REBUILD_V2 = {"hill": "python -m shoulder_bench.hill_v2", "fem": "python -m shoulder_bench.fem.v2"}
+
+
+def load_law(plane_deg: float | None = None, folder: Path | None = None, source: str = "hill") -> ForceLaw:
+    """The v2 tables of `source` ("hill" or "fem") as a `ForceLaw` (`ForceLaw.load` on the v2 folder), checked
+    against the locked variant's coupled moment arms in `plane_deg` (`geometry`) and refused if built for another
+    plane."""
+    plane = default_plane() if plane_deg is None else float(plane_deg)
+    fix = f"rebuild with `{REBUILD_V2[source]} --plane {plane:g}`"
     try:
-        law = ForceLaw.load("hill", muscles=TENDONS, folder=folder or FOLDER,
+        law = ForceLaw.load(source, muscles=TENDONS, folder=folder or FOLDER,
                             arms=lambda grid: dict(zip(TENDONS, geometry(plane, grid)[1].T)))
     except ValueError as exc:
         if "does not match the model" not in str(exc):
             raise
         raise ValueError(f"{exc} (v2 tables: {fix})") from exc
     for t in law.tables:
-        if t.meta.get("plane_deg") != float(plane):
+        if t.meta.get("plane_deg") != plane:
             raise ValueError(f"the {t.muscle} table was built for plane {t.meta.get('plane_deg')}, not {plane}; {fix}")
     return law
 
@@ -125,7 +121,8 @@ def compile_actuated(plane_deg: float) -> mujoco.MjModel:
     return compile_model(xml=xml, prepare=mobl.harden_couplings)
 
 
-def applied_vs_table(plane_deg: float | None = None, folder: Path | None = None) -> dict[str, dict]:
+def applied_vs_table(plane_deg: float | None = None, folder: Path | None = None,
+                     source: str = "hill") -> dict[str, dict]:
     """At every grid pose and activation level, the generalised force MuJoCo applies along shoulder_elv (S^T
     qfrc_actuator, qvel 0) against the table's torque_Nm; per tendon the max error in N m and as % of the muscle's
     peak |torque_Nm|.
@@ -134,19 +131,19 @@ def applied_vs_table(plane_deg: float | None = None, folder: Path | None = None)
     `model.attach_law` (joint shoulder_elv) and the callbacks installed, `mj_forward`. One tendon at a time: a law
     of that tendon's table alone is attached, so the other actuators exert nothing (the callback gives them zero)."""
     plane = default_plane() if plane_deg is None else plane_deg
-    law = load_law(plane, folder)
+    law = load_law(plane, folder, source)
     m = compile_actuated(plane)
     d, path = mujoco.MjData(m), statics_v2.LockedPath(plane)
     if path.m.nv != m.nv:
         raise ValueError("the actuated variant's chain differs from statics_v2.LockedPath's")
     install_callbacks()
-    q_adr = int(m.jnt_qposadr[m.joint(statics_v2.GIRDLE_DRIVER).id])
+    q_adr = int(m.jnt_qposadr[m.joint(arm.JOINT).id])
     grid = np.radians(law.tables[0].angle_deg)
     poses = [path.pose(q).qpos.copy() for q in grid]  # on the coupling manifold, as the builder posed it
     slopes = [path.slopes(q) for q in grid]
     out = {}
     for table in law.tables:
-        attach_law(m, ForceLaw([table]), joint=statics_v2.GIRDLE_DRIVER)
+        attach_law(m, ForceLaw([table]), joint=arm.JOINT)
         k = m.actuator(table.muscle).id
         err = np.zeros((len(grid), len(table.activation)))
         for i, (qpos, s) in enumerate(zip(poses, slopes)):

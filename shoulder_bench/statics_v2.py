@@ -31,12 +31,12 @@ import argparse
 import functools
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
-from shoulder_bench import anatomy, mobl, references, statics, tendons
+from shoulder_bench import anatomy, references, statics, tendons
+from shoulder_bench.arm import LockedPath  # noqa: F401 (re-exported: the v2 static estimate poses with it)
 from shoulder_bench.fem.material import f_active, f_passive
-from shoulder_bench.kinematics import GIRDLE_DRIVER, ShoulderPoser, moment_arms
+from shoulder_bench.kinematics import ShoulderPoser, moment_arms
 
 LABEL = ("static rigid-tendon Hill estimate (parent's parameters, Blemker curves); the FEM tables replace it later")
 RANGE_DEG = (-10.0, 160.0)
@@ -59,53 +59,6 @@ def tendon_force(L_mt, p: tendons.FibreParams, activation) -> np.ndarray:
     """Tendon force (N): F0 (a f_active(lam) + f_passive(lam)) cos a."""
     lam, cos_a = fibres(L_mt, p)
     return p.f0 * (activation * f_active(lam) + f_passive(lam)) * cos_a
-
-
-class LockedPath:
-    """The locked 1-DOF variant posed along its coupled path: shoulder_elv set, the girdle from its polycoefs."""
-
-    def __init__(self, plane_deg: float):
-        m = self.m = mujoco.MjModel.from_xml_string(mobl.model_xml(locked_plane_deg=plane_deg))
-        self.d, self.hum = mujoco.MjData(m), m.body("humerus").id
-        self.q = int(m.joint(GIRDLE_DRIVER).qposadr[0])
-        self.couplings = []  # (qpos address, dof address, polycoef) of each slaved joint
-        for e in range(m.neq):
-            dep, drv = m.joint(int(m.eq_obj1id[e])), m.joint(int(m.eq_obj2id[e]))
-            if drv.name != GIRDLE_DRIVER:
-                raise ValueError(f"locked variant: {dep.name} is driven by {drv.name}, not {GIRDLE_DRIVER}")
-            self.couplings.append((int(dep.qposadr[0]), int(dep.dofadr[0]), m.eq_data[e, :5].copy()))
-
-    def pose(self, elevation_rad: float) -> mujoco.MjData:
-        m, d = self.m, self.d
-        d.qpos[:] = m.qpos0
-        d.qpos[self.q] = x = elevation_rad - m.qpos0[self.q]
-        for adr, _, c in self.couplings:
-            d.qpos[adr] = m.qpos0[adr] + sum(c[k] * x ** k for k in range(5))
-        mujoco.mj_kinematics(m, d)
-        mujoco.mj_comPos(m, d)
-        return d
-
-    def com_height(self, elevation_rad: float) -> float:
-        """World z (m, superior) of the humerus COM."""
-        return float(self.pose(elevation_rad).xipos[self.hum, 2])
-
-    def slopes(self, elevation_rad: float) -> np.ndarray:
-        """S (nv,): dqvel / d(shoulder_elv rate) along the couplings (1 on shoulder_elv, each polycoef's derivative)."""
-        m = self.m
-        x = elevation_rad - m.qpos0[self.q]
-        s = np.zeros(m.nv)
-        s[int(m.jnt_dofadr[m.joint(GIRDLE_DRIVER).id])] = 1.0
-        for _, dof, c in self.couplings:
-            s[dof] = sum(k * c[k] * x ** (k - 1) for k in range(1, 5))
-        return s
-
-    def gravity_torque(self, elevation_rad: float) -> float:
-        """-dPE/dq (N m, + elevates) of the humerus alone: -m g (J_com S)_z, S = dqpos/dq along the couplings."""
-        m, d = self.m, self.pose(elevation_rad)
-        s = self.slopes(elevation_rad)
-        jacp = np.zeros((3, m.nv))
-        mujoco.mj_jacBodyCom(m, d, jacp, None, self.hum)
-        return float(m.body_mass[self.hum] * m.opt.gravity[2] * (jacp[2] @ s))
 
 
 @dataclass

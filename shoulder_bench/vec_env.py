@@ -10,7 +10,8 @@ import torch
 from rsl_rl.env import VecEnv as _RslVecEnv
 from tensordict import TensorDict
 
-from shoulder_bench import arm as arm_, protocol, statics
+from shoulder_bench import arm as arm_
+from shoulder_bench import protocol, statics
 from shoulder_bench import trajectory as targets
 from shoulder_bench.mobl import harden_couplings
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
@@ -117,7 +118,7 @@ class VecEnv(_RslVecEnv):
         applied, sent = protocol.to_delta(a, self.n, self.discrete, batch=self.num_envs)  # raises before any change
         self.act = np.clip(self.act + applied, 0.0, 1.0)
         self.qpos, self.qvel, bad = self.sim.frame_state(self.qpos, self.qvel, self.act)
-        q, v = self.q, self.v
+        q = self.q
         self.frames += 1
         angle = np.degrees(q)
         rows = np.arange(self.num_envs)

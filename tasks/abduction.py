@@ -16,7 +16,8 @@ from dm_control.rl import control
 from dm_control.rl.control import PhysicsError
 from dm_env import specs
 
-from shoulder_bench import arm as arm_, protocol, statics, trajectory
+from shoulder_bench import arm as arm_
+from shoulder_bench import protocol, statics, trajectory
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL, attach_law, install_callbacks, law_of
 from shoulder_bench.tasks import options as opt
 

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from shoulder_bench import hill_v2, statics_v2, tendons
+from shoulder_bench import arm, hill_v2, tendons
 from shoulder_bench.fem import output_folder, quantised, rounded
 from shoulder_bench.fem.build import NOISE_FORCE_N
 from shoulder_bench.fem.material import Material
@@ -146,7 +146,7 @@ def _meta(t, spec, plane, res, digest, material, settings, fem, seconds) -> dict
     its = fem["newton_iterations"]
     return {"model": "fem", "source": "fem", "muscle": t, "parent_muscle": hill_v2.PARENT_MUSCLE[t],
             "model_file": f"mobl.model_xml(locked_plane_deg={plane:g}, dynamics=True, actuators=True)",
-            "plane_deg": float(plane), "joint": statics_v2.GIRDLE_DRIVER, "girdle": "coupled",
+            "plane_deg": float(plane), "joint": arm.JOINT, "girdle": "coupled",
             "law": "v2_sheet: pennated fibre membrane (Blemker fibres, co-rotational background) of axial extent "
                    "L_MT - l_ts in series with a rigid tendon; force = the axial reaction at the insertion edge",
             "moment_arm": "-ten_J S (tendon Jacobian along the coupling slopes), the total coupled arm",
