@@ -32,8 +32,8 @@ FINE_STEP_DEG = 0.1  # grid of the tabled reduced quantities (gravity torque, in
 # shoulder_elv's range (MoBL, coordinate_definitions.csv: 0..180.023 deg, rounded; tests check it against the model)
 RANGE_DEG = (0.0, 180.0)
 # A numerical failure ("crash") is a non-finite state, a MuJoCo instability, or the arm further than this beyond the
-# range. The joint limit is a soft constraint at the 50 ms physics step: a free fall from the top of the range
-# overshoots the lower limit by about 21 deg (tests/test_arm.py measures it), which is not a failure.
+# range. The joint limit is a soft constraint at the 50 ms physics step: a free fall from the top of the range (180°)
+# overshoots the lower limit to -25.8° (tests/test_arm.py), which is not a failure.
 VALID_MARGIN_DEG = 30.0
 
 
