@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from shoulder_bench import mobl, statics
+from shoulder_bench import arm, mobl, statics
 from shoulder_bench.muscle import ForceLaw
 from shoulder_bench.simulator import BatchSimulator
 
@@ -27,7 +27,7 @@ def cases(n: int, nthread: int) -> dict:
     v1 = BatchSimulator(law, n, nthread=nthread)
     v1_passive = BatchSimulator(None, n, nthread=nthread)
     xml = mobl.model_xml(locked_plane_deg=0.0, dynamics=True)
-    v2 = BatchSimulator(None, n, nthread=nthread, xml=xml, prepare=mobl.harden_couplings, joint="shoulder_elv")
+    v2 = BatchSimulator(None, n, nthread=nthread, xml=xml, prepare=arm.harden_couplings, joint="shoulder_elv")
     slope = np.zeros(v2.nv)
     slope[v2.dadr] = 1.0
     m = v2.model

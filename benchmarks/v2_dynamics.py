@@ -34,7 +34,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from shoulder_bench import mobl
+from shoulder_bench import arm, mobl
 
 FRAME = 0.1
 T_MOTION = 2.0
@@ -154,7 +154,7 @@ class Option:
             m.eq_solimp[:] = self.solimp
         mujoco.mj_setConst(m, mujoco.MjData(m))  # armature changes dof_invweight0
         if self.harden:
-            mobl.harden_couplings(m)
+            arm.harden_couplings(m)
         return m
 
 

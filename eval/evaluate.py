@@ -88,21 +88,21 @@ def check_policy_file(spec: str) -> Path:
 def policy_for(spec: str, task: str | None = None) -> tuple[object, dict, str]:
     """(policy, metadata, task) for a policy file, run folder, `pretrained:NAME` or `reference` (the model-based
     controller, on `task`, default abduction_4m). A trained policy runs on the task it was trained on."""
-    from shoulder_bench.tasks import _check
+    from shoulder_bench.tasks import check_name
 
     if spec == "reference":
         from shoulder_bench.eval.reference import ReferenceController
 
-        task = _check(task or "abduction_4m")
+        task = check_name(task or "abduction_4m")
         return ReferenceController(task), {"task": task, "algo": "reference"}, task
     from shoulder_bench.train.policy import load_policy
 
     check_policy_file(spec)
     policy, meta = load_policy(spec)
-    if task is not None and _check(task) != meta.get("task"):
+    if task is not None and check_name(task) != meta.get("task"):
         raise ValueError(f"policy {spec} was trained on {meta.get('task')!r}, not {task!r}; pass --task "
                          f"{meta.get('task')} or leave --task out")
-    return policy, meta, _check(meta["task"])
+    return policy, meta, check_name(meta["task"])
 
 
 def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: str | None = None,

@@ -18,7 +18,7 @@ import torch
 from shoulder_bench import protocol, statics
 from shoulder_bench.arm import arm
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
-from shoulder_bench.tasks import TASKS, _check
+from shoulder_bench.tasks import TASKS, check_name
 
 
 class ReferenceController:
@@ -26,7 +26,7 @@ class ReferenceController:
 
     def __init__(self, task: str, muscle_model: str = DEFAULT_MUSCLE_MODEL, kp: float = 60.0, kv: float = 14.0,
                  joint_damping: float | None = None):
-        muscles, discrete, _ = TASKS[_check(task)]
+        muscles, discrete, _ = TASKS[check_name(task)]
         if discrete:
             raise ValueError(f"the reference controller acts continuously; use {task.replace('_discrete', '')}")
         self.arm = arm()

@@ -12,14 +12,14 @@ its scapular via point are placed by hand (MoBL thorax points need a frame chain
 """
 from __future__ import annotations
 
+# the muscles and their optimal fibre lengths are defined with the force law that needs them at run time
+from shoulder_bench.muscle import MUSCLES, OPTIMAL_FIBRE_LENGTH  # noqa: F401
+
 MODEL_VERSION = "1"  # this (v1) model's version; the tasks run model v2 (shoulder_bench.arm.MODEL_VERSION)
-MUSCLES = ("ssp", "isp", "dmi", "ld")
 MUSCLE_NAMES = {"ssp": "supraspinatus", "isp": "infraspinatus", "dmi": "deltoid, middle part", "ld": "latissimus dorsi"}
 
 # Maximum isometric force, N (MoBL-ARMS; ld = LAT1 + LAT2 + LAT3).
 F0 = {"ssp": 499.2, "isp": 1075.8, "dmi": 1103.5, "ld": 797.0}
-# Optimal fibre length, m (MoBL-ARMS: SUPSP, INFSP, DELT2, LAT2); used for the force-velocity scale.
-OPTIMAL_FIBRE_LENGTH = {"ssp": 0.0682, "isp": 0.0755, "dmi": 0.1078, "ld": 0.2317}
 
 HUMERAL_HEAD_RADIUS = 0.024
 HUMERUS_LENGTH = 0.30

@@ -2,7 +2,7 @@
 
 `models/shoulder_v2_task.xml` is `mobl.model_xml(locked_plane_deg=TASK_PLANE_DEG, dynamics=True, actuators=True)`:
 the humerus elevates (`shoulder_elv`, the thoracohumeral elevation) in the coronal plane with axial rotation 0, and the
-clavicle and scapula follow by the MoBL rhythm (joint equalities, hardened by `mobl.harden_couplings` after every
+clavicle and scapula follow by the MoBL rhythm (joint equalities, hardened by `harden_couplings` after every
 compile). Its state is the whole qpos/qvel (the elevation plus the ten slaved girdle joints); the tasks' angle is the
 elevation.
 
@@ -20,7 +20,8 @@ import threading
 import mujoco
 import numpy as np
 
-from shoulder_bench.model import MODELS_DIR, compile_model, tendon_jacobian
+from shoulder_bench.geometry import compile_model, tendon_jacobian
+from shoulder_bench.paths import MODELS_DIR
 
 MODEL_VERSION = "2"  # recorded in every run and policy; bump when the tasks' model or its dynamics change
 TASK_PLANE_DEG = 0  # the tasks' plane of elevation: coronal (docs/model_v2.md "The tasks' plane")
@@ -28,6 +29,7 @@ MODEL_FILE = MODELS_DIR / "shoulder_v2_task.xml"
 TABLE_FOLDER = MODELS_DIR / "muscles_v2"
 JOINT = "shoulder_elv"  # the driver of the girdle couplings and the tasks' angle
 ACTUATORS = {"ssp": ("ssp",), "isp": ("isp",), "dmi": ("dmi",), "ld": ("ld1", "ld2", "ld3")}
+MUSCLES = tuple(ACTUATORS)  # the tasks' muscles
 FINE_STEP_DEG = 0.1  # grid of the tabled reduced quantities (gravity torque, inertia); linear interpolation
 # shoulder_elv's range (MoBL, coordinate_definitions.csv: 0..180.023 deg, rounded; tests check it against the model)
 RANGE_DEG = (0.0, 180.0)
@@ -35,6 +37,19 @@ RANGE_DEG = (0.0, 180.0)
 # range. The joint limit is a soft constraint at the 50 ms physics step: a free fall from the top of the range (180°)
 # overshoots the lower limit to -25.8° (tests/test_arm.py), which is not a failure.
 VALID_MARGIN_DEG = 30.0
+# A_hat of a joint equality comes from dof_invweight0, which MuJoCo computes at qpos0 from the inverse mass matrix.
+# The placeholder girdle bodies make it ~1e8 (modes in which only they move), so R swamps the humerus's
+# ~1/0.06 kg m^2 and the couplings go soft (the girdle lags by degrees) or blow up. harden_couplings() overwrites it
+# after compiling: it changes only the constraint softness (R), not the inertia, the forces or the reference
+# acceleration. MJCF has no attribute for it. A numerical setting without a source (docs/model_v2.md).
+COUPLING_INVWEIGHT = 0.01
+
+
+def harden_couplings(model, invweight: float = COUPLING_INVWEIGHT):
+    """Make a compiled `dynamics=True` model's joint equalities (nearly) hard: set every dof's `dof_invweight0`
+    (the constraint regularizer's scale) to `invweight`. Call it after every compile; `mj_setConst` undoes it."""
+    model.dof_invweight0[:] = invweight
+    return model
 
 
 def actuators_of(muscles) -> tuple[str, ...]:
@@ -47,26 +62,17 @@ def actuators_of(muscles) -> tuple[str, ...]:
 
 def compile_arm() -> mujoco.MjModel:
     """The task model, compiled and with its couplings hardened (thread-safe, as `model.compile_model`)."""
-    from shoulder_bench.mobl import harden_couplings
-
     return compile_model(MODEL_FILE, prepare=harden_couplings)
 
 
 class LockedPath:
     """A locked 1-DOF variant posed along its coupled path: the elevation set, the girdle from its polycoefs.
 
-    `model`: a compiled locked variant (default: the tasks' model); or `plane_deg`: the kinematic locked variant in
-    that plane, generated (`mobl.model_xml(locked_plane_deg=...)`)."""
+    `model`: a compiled locked variant (default: the tasks' model; `statics_v2.LockedPath(plane_deg)` generates the
+    kinematic variant of another plane)."""
 
-    def __init__(self, plane_deg: float | None = None, model: mujoco.MjModel | None = None):
-        if model is None:
-            if plane_deg is None:
-                model = compile_arm()
-            else:
-                from shoulder_bench import mobl
-
-                model = mujoco.MjModel.from_xml_string(mobl.model_xml(locked_plane_deg=plane_deg))
-        m = self.m = model
+    def __init__(self, model: mujoco.MjModel | None = None):
+        m = self.m = compile_arm() if model is None else model
         self._lock = threading.Lock()
         self.d, self.hum = mujoco.MjData(m), m.body("humerus").id
         self.q = int(m.joint(JOINT).qposadr[0])

@@ -52,9 +52,9 @@ def algo_module(algo: str):
 
 
 def check_task(task: str, algo: str) -> None:
-    from shoulder_bench.tasks import TASKS, _check
+    from shoulder_bench.tasks import TASKS, check_name
 
-    muscles, discrete, _ = TASKS[_check(task)]
+    muscles, discrete, _ = TASKS[check_name(task)]
     want = {"ppo": "a continuous task", "dqn": "a discrete single-muscle task", "bdq": "a discrete task"}[algo]
     ok = {"ppo": not discrete, "dqn": discrete and len(muscles) == 1, "bdq": discrete}[algo]
     if not ok:

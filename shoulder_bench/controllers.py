@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from shoulder_bench import protocol
-from shoulder_bench.anatomy import MUSCLES
+from shoulder_bench.arm import MUSCLES
 
 # sign of each muscle's abduction moment over the working range (ld depresses; isp is ~neutral: left idle)
 ELEVATES = {"ssp": 1.0, "isp": 0.0, "dmi": 1.0, "ld": -1.0}

@@ -116,9 +116,9 @@ def load_law(plane_deg: float | None = None, folder: Path | None = None, source:
 
 
 def compile_actuated(plane_deg: float) -> mujoco.MjModel:
-    """The locked variant with actuators and dynamics settings (`model.compile_model`, then `mobl.harden_couplings`)."""
+    """The locked variant with actuators and dynamics settings (`model.compile_model`, then `arm.harden_couplings`)."""
     xml = mobl.model_xml(locked_plane_deg=plane_deg, dynamics=True, actuators=True)
-    return compile_model(xml=xml, prepare=mobl.harden_couplings)
+    return compile_model(xml=xml, prepare=arm.harden_couplings)
 
 
 def applied_vs_table(plane_deg: float | None = None, folder: Path | None = None,

@@ -46,16 +46,10 @@ THORAX_QUAT = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)  # thorax y (superior) 
 # data has no girdle masses. Not anatomy; 0.1 g puts no measurable load on the slaved joints.
 PLACEHOLDER_INERTIAL = '<inertial pos="0 0 0" mass="0.0001" diaginertia="1e-08 1e-08 1e-08"/>'
 TENDON_RGBA = {t: MUSCLE_RGBA[t[:2] if t.startswith("ld") else t] for t in D.MUSCLES}
-# Simulating the model (`model_xml(dynamics=True)` + `harden_couplings`; benchmarks/v2_dynamics.py, docs/model_v2.md
+# Simulating the model (`model_xml(dynamics=True)` + `arm.harden_couplings`; benchmarks/v2_dynamics.py, docs/model_v2.md
 # "Dynamics: options measured"). Numerical settings, not anatomy; none has a source.
 # MuJoCo's hardest impedance (solimp dmax is capped at 0.9999): the couplings' regularizer R = (1 - d)/d * A_hat.
 COUPLING_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2)
-# A_hat of a joint equality comes from dof_invweight0, which MuJoCo computes at qpos0 from the inverse mass matrix.
-# The placeholder girdle bodies make it ~1e8 (modes in which only they move), so R swamps the humerus's
-# ~1/0.06 kg m^2 and the couplings go soft (the girdle lags by degrees) or blow up. harden_couplings() overwrites it
-# after compiling: it changes only the constraint softness (R), not the inertia, the forces or the reference
-# acceleration. MJCF has no attribute for it.
-COUPLING_INVWEIGHT = 0.01
 
 # model_xml(scene=True): v1's scene (models/scene.xml: sky, haze, headlight, a directional key light, the floor 1.35 m
 # below the shoulder) with its cameras `front` (anterior view, the right arm on the image's left) and `back` aimed at
@@ -188,13 +182,6 @@ def _lock(frames: dict, joints: list, locked: dict[str, float]) -> tuple[dict, l
     return frames, kept
 
 
-def harden_couplings(model, invweight: float = COUPLING_INVWEIGHT):
-    """Make a compiled `dynamics=True` model's joint equalities (nearly) hard: set every dof's `dof_invweight0`
-    (the constraint regularizer's scale) to `invweight`. Call it after every compile; `mj_setConst` undoes it."""
-    model.dof_invweight0[:] = invweight
-    return model
-
-
 def model_xml(clavicle: str = "mobl", folder: Path | None = None, locked_plane_deg: float | None = None,
               dynamics: bool = False, actuators: bool = False, scene: bool = False) -> str:
     """The v2 MJCF. `clavicle="myoarm"` puts the clavicle where MyoArm has it (for the reconstruction test only).
@@ -207,7 +194,7 @@ def model_xml(clavicle: str = "mobl", folder: Path | None = None, locked_plane_d
     `dynamics=True`: settings for stepping the model (docs/model_v2.md "Dynamics: options measured"): the coupled
     (slaved) joints get no limits (their ranges start at their rest value, and below 0 deg elevation, past a soft
     limit, the couplings would fight them; the drivers' limits bound them), the equalities get `COUPLING_SOLIMP`.
-    Compile, then `harden_couplings(model)`. RK4 at v1's timestep, no joint damping (none is needed for stability
+    Compile, then `arm.harden_couplings(model)`. RK4 at v1's timestep, no joint damping (none is needed for stability
     and no value has a source). The default (False) is the shipped kinematic file.
 
     `actuators=True`: one `general` actuator per tendon (ssp, isp, dmi, ld1, ld2, ld3), declared as v1's
@@ -284,7 +271,7 @@ def model_xml(clavicle: str = "mobl", folder: Path | None = None, locked_plane_d
                     "rotation 0\n       (elv_angle, shoulder1_r2, shoulder_rot baked into the frames).")
     if dynamics:
         variant += ("\n       Dynamics settings: slaved joints unlimited, hard coupling impedance; call\n"
-                    "       mobl.harden_couplings(model) after compiling.")
+                    "       arm.harden_couplings(model) after compiling.")
     if actuators:
         variant += "\n       Actuators: one per tendon, user gain/bias (the tabled force law, model.attach_law)."
     if scene:

@@ -24,42 +24,17 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-MODELS_DIR = Path(__file__).resolve().parent / "models"
-if not MODELS_DIR.is_dir():  # source checkout: models/ sits beside the package
-    MODELS_DIR = Path(__file__).resolve().parents[1] / "models"
-MODEL_PATH = MODELS_DIR / "shoulder.xml"
-SCENE_PATH = MODELS_DIR / "scene.xml"
-JOINT = "abduction"
+# re-exported: model.compile_model, model.MODELS_DIR, ... are where callers have always found them
+from shoulder_bench.geometry import JOINT, compile_model, moment_arms, tendon_geometry, tendon_jacobian  # noqa: F401
+from shoulder_bench.muscle import ForceLaw
+from shoulder_bench.paths import MODEL_PATH, MODELS_DIR, SCENE_PATH  # noqa: F401
+
 DEFAULT_MUSCLE_MODEL = "fem"  # tables from the thin-shell FEM (docs/fem.md); "hill" is the alternative
 
 _LAWS: dict[int, tuple] = {}  # law id -> (ForceLaw, name of the joint it sees), one id per attach_law
 _law_ids = itertools.count(1)
 _models: dict[int, _ModelEntry] = {}  # id(MjModel) -> what the callback needs for that model
 _datas: dict[int, _DataEntry] = {}  # id(MjData) -> views and the forces of the current evaluation
-
-
-def compile_model(path: Path | str = MODEL_PATH, prepare=None, *, xml: str | None = None) -> mujoco.MjModel:
-    """Compile an MJCF file (`path`) or MJCF text (`xml`) whose actuators may be `user` ones while the muscle
-    callbacks are installed (thread-safe), then call `prepare(model)` if given (e.g. `mobl.harden_couplings`).
-
-    The `user` gains and biases are compiled as fixed gain / no bias, so that compiling never calls the callbacks, and
-    set back to `user` in the compiled model.
-    """
-    spec = mujoco.MjSpec.from_string(xml) if xml is not None else mujoco.MjSpec.from_file(str(path))
-    user_gain, user_bias = [], []
-    for k, act in enumerate(spec.actuators):
-        if act.gaintype == mujoco.mjtGain.mjGAIN_USER:
-            act.gaintype = mujoco.mjtGain.mjGAIN_FIXED
-            user_gain.append(k)
-        if act.biastype == mujoco.mjtBias.mjBIAS_USER:
-            act.biastype = mujoco.mjtBias.mjBIAS_NONE
-            user_bias.append(k)
-    m = spec.compile()
-    m.actuator_gaintype[user_gain] = mujoco.mjtGain.mjGAIN_USER
-    m.actuator_biastype[user_bias] = mujoco.mjtBias.mjBIAS_USER
-    if prepare is not None:
-        prepare(m)
-    return m
 
 
 DEFAULT_JOINTS = (JOINT, "shoulder_elv")  # the law's angle coordinate, first present: v1's abduction, v2's elevation
@@ -198,8 +173,6 @@ def load_model(muscle_model: str = DEFAULT_MUSCLE_MODEL, muscles=None, path: Pat
     muscle_model: "fem" (tables from the thin-shell FEM) or "hill"; muscles: the simulated muscles (default all
     four); the others exert no force, as if absent.
     """
-    from shoulder_bench.muscle import ForceLaw
-
     m = compile_model(path)
     attach_law(m, ForceLaw.load(muscle_model, muscles=tuple(muscles or muscle_names(m))))
     install_callbacks()
@@ -208,35 +181,3 @@ def load_model(muscle_model: str = DEFAULT_MUSCLE_MODEL, muscles=None, path: Pat
 
 def muscle_names(m: mujoco.MjModel) -> tuple[str, ...]:
     return tuple(m.actuator(i).name for i in range(m.nu))
-
-
-def tendon_geometry(angle_deg, path: Path | str = MODEL_PATH) -> tuple[dict, dict]:
-    """(tendon lengths (m), moment arms (m, positive = elevates the arm)) per tendon at the given abduction angles."""
-    m = compile_model(path)
-    d = mujoco.MjData(m)
-    jnt = m.joint(JOINT)
-    angles = np.radians(np.atleast_1d(angle_deg))
-    lengths, arms = np.zeros((len(angles), m.ntendon)), np.zeros((len(angles), m.ntendon))
-    for k, a in enumerate(angles):
-        d.qpos[jnt.qposadr[0]] = a
-        mujoco.mj_kinematics(m, d)
-        mujoco.mj_comPos(m, d)
-        mujoco.mj_tendon(m, d)
-        lengths[k] = d.ten_length
-        arms[k] = -tendon_jacobian(m, d)[:, jnt.dofadr[0]]
-    names = [m.tendon(t).name for t in range(m.ntendon)]
-    return ({n: lengths[:, t] for t, n in enumerate(names)}, {n: arms[:, t] for t, n in enumerate(names)})
-
-
-def moment_arms(angle_deg, path: Path | str = MODEL_PATH) -> dict[str, np.ndarray]:
-    """MJCF tendon moment arms (m, positive = elevates the arm) at the given abduction angles."""
-    return tendon_geometry(angle_deg, path)[1]
-
-
-def tendon_jacobian(m: mujoco.MjModel, d: mujoco.MjData) -> np.ndarray:
-    """Dense (ntendon, nv) tendon Jacobian dL/dq, whether MuJoCo stores it sparse or dense."""
-    if not mujoco.mj_isSparse(m):
-        return np.asarray(d.ten_J).reshape(m.ntendon, m.nv).copy()
-    dense = np.zeros((m.ntendon, m.nv))
-    mujoco.mju_sparse2dense(dense, d.ten_J, d.ten_J_rownnz, d.ten_J_rowadr, d.ten_J_colind)
-    return dense

@@ -28,17 +28,19 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from shoulder_bench import anatomy
+from shoulder_bench.paths import MODELS_DIR
 
 FV_MAX = 1.2
 VMAX_LOPT_PER_S = 10.0
 MUSCLE_MODELS = ("fem", "hill")
+# Model v1's muscles (the shipped v1 tables, models/muscles) and their optimal fibre lengths (m; MoBL-ARMS SUPSP,
+# INFSP, DELT2, LAT2), the force-velocity scale; anatomy re-exports them.
+MUSCLES = ("ssp", "isp", "dmi", "ld")
+OPTIMAL_FIBRE_LENGTH = {"ssp": 0.0682, "isp": 0.0755, "dmi": 0.1078, "ld": 0.2317}
 REQUIRED_KEYS = ("angle_deg", "activation", "force_N", "torque_Nm", "moment_arm_m", "meta")
 
 
 def table_path(muscle: str, muscle_model: str, folder: Path | None = None) -> Path:
-    from shoulder_bench.model import MODELS_DIR
-
     return Path(folder or MODELS_DIR / "muscles") / f"{muscle}_{muscle_model}.npz"
 
 
@@ -165,22 +167,22 @@ class ForceLaw:
         self._neg_inv_vscale = -1.0 / np.array([VMAX_LOPT_PER_S * _optimal_fibre_length(t) for t in tables])
 
     @classmethod
-    def load(cls, muscle_model: str = "fem", muscles=anatomy.MUSCLES, folder: Path | None = None,
+    def load(cls, muscle_model: str = "fem", muscles=MUSCLES, folder: Path | None = None,
              arms=None, groups: dict | None = None) -> ForceLaw:
         """The law of `muscles` from `<folder>/<muscle>_<muscle_model>.npz`, each table checked against the model's
         moment arms on its angle grid.
 
-        folder: default the shipped v1 tables (then only anatomy.MUSCLES); with a folder any muscle with a table
+        folder: default the shipped v1 tables (then only MUSCLES); with a folder any muscle with a table
         there (v2's tendons). arms: the model's moment arms (m) on the tables' grid, a dict muscle -> (K,) or a
-        callable angle_deg (K,) -> such a dict; default v1's MJCF (`model.moment_arms`). groups: as `ForceLaw`
+        callable angle_deg (K,) -> such a dict; default v1's MJCF (`geometry.moment_arms`). groups: as `ForceLaw`
         (then `muscles` are the tables to load, in actuator order)."""
         if muscle_model not in MUSCLE_MODELS:
             raise ValueError(f"unknown muscle_model {muscle_model!r}; choose one of {MUSCLE_MODELS}")
         muscles = tuple(muscles)
         if folder is None:
-            unknown = [m for m in muscles if m not in anatomy.MUSCLES]
+            unknown = [m for m in muscles if m not in MUSCLES]
             if unknown:
-                raise ValueError(f"unknown muscle(s) {unknown}; choose from {anatomy.MUSCLES} (or give the folder "
+                raise ValueError(f"unknown muscle(s) {unknown}; choose from {MUSCLES} (or give the folder "
                                  "of their tables)")
         paths = [table_path(m, muscle_model, folder) for m in muscles]
         tables = [MuscleTable.load(p) for p in paths]
@@ -254,9 +256,9 @@ class ForceLaw:
 
 
 def _optimal_fibre_length(t: MuscleTable) -> float:
-    """anatomy's l_opt for v1's muscles; for others (v2's tendons ld1-3, ...) the table's `optimal_fibre_length_m`."""
-    if t.muscle in anatomy.OPTIMAL_FIBRE_LENGTH:
-        return anatomy.OPTIMAL_FIBRE_LENGTH[t.muscle]
+    """v1's l_opt (OPTIMAL_FIBRE_LENGTH); for others (v2's tendons ld1-3, ...) the table's `optimal_fibre_length_m`."""
+    if t.muscle in OPTIMAL_FIBRE_LENGTH:
+        return OPTIMAL_FIBRE_LENGTH[t.muscle]
     return float(t.meta["optimal_fibre_length_m"])
 
 
@@ -310,7 +312,7 @@ _ARM_CACHE: dict[tuple, dict[str, np.ndarray]] = {}
 
 
 def _model_moment_arms(angle_deg: np.ndarray) -> dict[str, np.ndarray]:
-    from shoulder_bench.model import moment_arms
+    from shoulder_bench.geometry import moment_arms
 
     key = tuple(np.round(angle_deg, 9))
     if key not in _ARM_CACHE:

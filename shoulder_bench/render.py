@@ -90,10 +90,10 @@ def _check_out(out: Path | str, gif: bool) -> Path:
 
 
 def _check_task(name: str) -> str:
-    from shoulder_bench.tasks import _check
+    from shoulder_bench.tasks import check_name
 
     try:
-        return _check(name)
+        return check_name(name)
     except KeyError as exc:
         raise ValueError(exc.args[0]) from None
 

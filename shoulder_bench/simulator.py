@@ -43,7 +43,7 @@ class BatchSimulator:
 
     path: an MJCF file (default v1's shoulder), or xml: MJCF text (e.g. `mobl.model_xml(locked_plane_deg=0,
     dynamics=True)`). prepare: called with the simulator's own compiled model before anything else touches it (e.g.
-    `mobl.harden_couplings`); it modifies the model in place. joint: the joint whose angle and velocity the law sees
+    `arm.harden_couplings`); it modifies the model in place. joint: the joint whose angle and velocity the law sees
     (default as `model.attach_law`: `abduction` (v1) if the model has it, else `shoulder_elv` (v2); needed only
     with a law). warmstart: carry MuJoCo's `qacc_warmstart` per copy in
     `self.warmstart` (N, nv) as `mj_step` does (default: iff the model has equality constraints); zero a copy's row

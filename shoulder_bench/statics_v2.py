@@ -31,10 +31,10 @@ import argparse
 import functools
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
-from shoulder_bench import anatomy, references, statics, tendons
-from shoulder_bench.arm import LockedPath  # noqa: F401 (re-exported: the v2 static estimate poses with it)
+from shoulder_bench import anatomy, arm, mobl, references, statics, tendons
 from shoulder_bench.fem.material import f_active, f_passive
 from shoulder_bench.kinematics import ShoulderPoser, moment_arms
 
@@ -47,6 +47,16 @@ CAPACITY_DEG = (0.0, 5.0, 10.0)
 GIRDLE = "coupled"
 BUNDLES = {m: tuple(references.V2_TENDONS[m]) for m in anatomy.MUSCLES}  # ld: ld1, ld2, ld3
 TENDONS = tuple(t for m in anatomy.MUSCLES for t in BUNDLES[m])
+
+
+class LockedPath(arm.LockedPath):
+    """`arm.LockedPath`; given `plane_deg`, of the kinematic locked variant in that plane, generated
+    (`mobl.model_xml(locked_plane_deg=...)`)."""
+
+    def __init__(self, plane_deg: float | None = None, model: mujoco.MjModel | None = None):
+        if model is None and plane_deg is not None:
+            model = mujoco.MjModel.from_xml_string(mobl.model_xml(locked_plane_deg=plane_deg))
+        super().__init__(model)
 
 
 def fibres(L_mt, p: tendons.FibreParams) -> tuple[np.ndarray, np.ndarray]:

@@ -83,10 +83,10 @@ def grid(tasks, algos, seeds, frames: int | None = None, eval_every: int = 100_0
     """(jobs, skipped pairs): every fitting task x algo pair with every seed; every run's definition is checked
     (`cli_train.plan`) before any starts."""
     from shoulder_bench.cli_train import ALGOS, DEFAULT_FRAMES, check_task
-    from shoulder_bench.tasks import _check
+    from shoulder_bench.tasks import check_name
 
     configs = configs or {}
-    tasks = [_check(t) for t in tasks]  # unknown names: KeyError listing the tasks
+    tasks = [check_name(t) for t in tasks]  # unknown names: KeyError listing the tasks
     bad = sorted(set(algos) - set(ALGOS))
     if bad:
         raise ValueError(f"unknown algorithm(s) {bad}; choose from {', '.join(ALGOS)}")

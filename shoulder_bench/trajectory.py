@@ -197,6 +197,19 @@ def load_test_set() -> list[Trajectory]:
     return [Trajectory(t.angle_deg, t.velocity_deg_s, name=f"test:{k}") for k, t in enumerate(load_csv(path))]
 
 
+def as_trajectory(spec) -> Trajectory | None:
+    """What a task tracks: None (random targets), a `Trajectory`, a CSV path holding one, or degrees at 0.1 s."""
+    if spec is None or isinstance(spec, Trajectory):
+        return spec
+    if isinstance(spec, str) or hasattr(spec, "__fspath__"):
+        found = load_csv(spec)
+        if len(found) != 1:
+            raise ValueError(f"{spec} holds {len(found)} trajectories; a task tracks one (pick one with "
+                             f"shoulder_bench.trajectory.load_csv(path)[k])")
+        return found[0]
+    return from_array(spec)
+
+
 if __name__ == "__main__":
     p = test_set_path()
     p.parent.mkdir(parents=True, exist_ok=True)

@@ -13,12 +13,12 @@ from tensordict import TensorDict
 from shoulder_bench import arm as arm_
 from shoulder_bench import protocol, statics
 from shoulder_bench import trajectory as targets
-from shoulder_bench.mobl import harden_couplings
+from shoulder_bench.arm import harden_couplings
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
 from shoulder_bench.simulator import BatchSimulator
-from shoulder_bench.tasks import TASKS, _check
+from shoulder_bench.tasks import TASKS, check_name
 from shoulder_bench.tasks import options as options_check
-from shoulder_bench.tasks.abduction import VALID_MARGIN_DEG, Abduction, _as_trajectory
+from shoulder_bench.tasks.abduction import VALID_MARGIN_DEG, Abduction
 
 MAX_ABS = 1e10  # MuJoCo's mjMAXVAL: beyond it the single env's MuJoCo would warn (a crash)
 
@@ -29,7 +29,7 @@ class VecEnv(_RslVecEnv):
 
     def __init__(self, name: str, num_envs: int, device: str = "cpu", seed=None, trajectory=None,
                  muscle_model: str = DEFAULT_MUSCLE_MODEL, nthread: int = 2, **options):
-        muscles, discrete, _ = TASKS[_check(name)]
+        muscles, discrete, _ = TASKS[check_name(name)]
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         seed = options_check.seed(seed)
@@ -37,7 +37,7 @@ class VecEnv(_RslVecEnv):
         fixed = trajectory if isinstance(trajectory, (list, tuple)) else [trajectory] * self.num_envs
         if len(fixed) != self.num_envs:
             raise ValueError(f"{len(fixed)} trajectories for {self.num_envs} environments: give one, or one per copy")
-        self.fixed = [_as_trajectory(t) for t in fixed]
+        self.fixed = [targets.as_trajectory(t) for t in fixed]
         self.task = Abduction(muscles, discrete=discrete, trajectory_=self.fixed[0], **options)
         self.muscles, self.discrete, self.n = tuple(muscles), discrete, len(muscles)
         self.num_actions = self.n

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import difflib
 
-from shoulder_bench.anatomy import MUSCLES
+from shoulder_bench.arm import MUSCLES
 
 # name -> (muscles, discrete, one-line description)
 TASKS = {
@@ -21,10 +21,11 @@ def list_tasks() -> list[str]:
 
 
 def describe(name: str) -> str:
-    return TASKS[_check(name)][2]
+    return TASKS[check_name(name)][2]
 
 
-def _check(name: str) -> str:
+def check_name(name: str) -> str:
+    """`name` if it is a task; KeyError listing the tasks (and the closest name) otherwise."""
     if name not in TASKS:
         close = difflib.get_close_matches(str(name), TASKS, n=1)
         hint = f" Did you mean {close[0]!r}?" if close else ""
@@ -44,5 +45,5 @@ def load(name: str, split: str = "train", seed=None, trajectory=None, **options)
     from shoulder_bench.tasks.abduction import make_env
 
     opt.check_names(options)
-    muscles, discrete, _ = TASKS[_check(name)]
+    muscles, discrete, _ = TASKS[check_name(name)]
     return make_env(muscles, discrete=discrete, split=split, seed=seed, trajectory=trajectory, **options)

@@ -20,6 +20,7 @@ from shoulder_bench import arm as arm_
 from shoulder_bench import protocol, statics, trajectory
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL, attach_law, install_callbacks, law_of
 from shoulder_bench.tasks import options as opt
+from shoulder_bench.trajectory import as_trajectory
 
 VALID_MARGIN_DEG = arm_.VALID_MARGIN_DEG  # beyond the joint range by more than this = the simulation has failed
 MAX_JOINT_DAMPING = 10.0  # N m s/rad: the sensitivity runs use 0.1-1.0; far above, RK4 at 50 ms is not stable
@@ -202,20 +203,8 @@ def make_env(muscles, discrete=False, split="train", seed=None, trajectory=None,
              **options) -> control.Environment:
     """A dm_control Environment of the abduction task (see `Abduction` for the options); options are checked before
     the model is built."""
-    target = _as_trajectory(trajectory)
+    target = as_trajectory(trajectory)
     task = Abduction(muscles, discrete=discrete, split=split, trajectory_=target, random=seed, **options)
     physics = make_physics(tuple(muscles), muscle_model)
     physics.model.dof_damping[physics._adr()[1]] = task.joint_damping
     return control.Environment(physics, task, time_limit=float("inf"), control_timestep=protocol.FRAME_S)
-
-
-def _as_trajectory(spec):
-    if spec is None or isinstance(spec, trajectory.Trajectory):
-        return spec
-    if isinstance(spec, str) or hasattr(spec, "__fspath__"):
-        found = trajectory.load_csv(spec)
-        if len(found) != 1:
-            raise ValueError(f"{spec} holds {len(found)} trajectories; a task tracks one (pick one with "
-                             f"shoulder_bench.trajectory.load_csv(path)[k])")
-        return found[0]
-    return trajectory.from_array(spec)

@@ -17,7 +17,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from shoulder_bench.tasks import TASKS, _check
+from shoulder_bench.tasks import TASKS, check_name
 from shoulder_bench.tasks import options as opt
 from shoulder_bench.tasks.gym_env import action_space, in_space, observation_space
 from shoulder_bench.vec_env import VecEnv
@@ -33,7 +33,7 @@ class ShoulderVectorEnv(VectorEnv):
         if render_mode is not None:
             raise ValueError(f"render_mode must be None for the vector env (got {render_mode!r}); render a single "
                              f"env: gymnasium.make(id, render_mode='rgb_array')")
-        muscles, discrete, _ = TASKS[_check(name)]
+        muscles, discrete, _ = TASKS[check_name(name)]
         self.name, self.options, self.render_mode = name, options, None
         self.batched = VecEnv(name, num_envs, seed=opt.seed(seed), **options)
         self._fresh = True  # its first targets are drawn and not yet used: the first reset keeps them

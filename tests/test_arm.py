@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from shoulder_bench import arm, statics
-from shoulder_bench.mobl import harden_couplings
+from shoulder_bench.arm import harden_couplings
 from shoulder_bench.muscle import ForceLaw
 from shoulder_bench.simulator import BatchSimulator
 

@@ -7,7 +7,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from shoulder_bench import anatomy, hill_v2, mjcf, mobl
+from shoulder_bench import anatomy, arm, hill_v2, mjcf, mobl
 from shoulder_bench.model import MODELS_DIR
 from shoulder_bench.muscle import ForceLaw, MuscleTable, table_path
 from shoulder_bench.validate import TASK_PLANE_V2
@@ -60,7 +60,7 @@ def test_actuators_have_tendon_transmission_and_user_gain():
         assert m.actuator_biastype[k] == mujoco.mjtBias.mjBIAS_USER
         assert list(m.actuator_ctrlrange[k]) == [0.0, 1.0] and m.actuator_ctrllimited[k]
         assert list(m.actuator_user[k]) == [0.0, float(k)]
-    assert np.all(m.dof_invweight0 == mobl.COUPLING_INVWEIGHT)
+    assert np.all(m.dof_invweight0 == arm.COUPLING_INVWEIGHT)
     assert "<actuator>" not in mobl.model_xml() and "<actuator>" not in mobl.model_xml(locked_plane_deg=0)
 
 

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from shoulder_bench import mobl
+from shoulder_bench import arm, mobl
 from shoulder_bench import mobl_data as D
 from shoulder_bench.kinematics import GH_COORDINATES, ShoulderPoser, moment_arms
 from shoulder_bench.model import MODELS_DIR
@@ -194,8 +194,8 @@ def test_dynamics_options_leave_the_default_and_step_stably(model):
     assert m.jnt_limited[elv] and not np.delete(m.jnt_limited, elv).any()
     np.testing.assert_allclose(m.eq_solimp, np.tile(mobl.COUPLING_SOLIMP, (m.neq, 1)))
     assert m.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4 and m.opt.timestep == 0.05
-    mobl.harden_couplings(m)
-    np.testing.assert_array_equal(m.dof_invweight0, mobl.COUPLING_INVWEIGHT)
+    arm.harden_couplings(m)
+    np.testing.assert_array_equal(m.dof_invweight0, arm.COUPLING_INVWEIGHT)
     # free fall from 90 deg for 2 s at the tasks' step (docs/model_v2.md "Dynamics"): finite, the girdle on its
     # prescription within 1e-4 deg, and the arm swings through the side onto the soft lower limit and back
     d = mujoco.MjData(m)

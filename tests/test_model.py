@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import shoulder_bench
-from shoulder_bench import anatomy, mjcf
+from shoulder_bench import anatomy, arm, mjcf
 from shoulder_bench.model import (
     MODEL_PATH,
     attach_law,
@@ -193,7 +193,7 @@ def _v2_locked():
     from shoulder_bench import mobl
 
     xml = mobl.model_xml(locked_plane_deg=0, dynamics=True, actuators=True)
-    return compile_model(xml=xml, prepare=mobl.harden_couplings)
+    return compile_model(xml=xml, prepare=arm.harden_couplings)
 
 
 def test_the_law_joint_is_chosen_per_model():

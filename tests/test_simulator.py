@@ -5,7 +5,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from shoulder_bench import mobl, statics
+from shoulder_bench import arm, mobl, statics
 from shoulder_bench.model import load_model
 from shoulder_bench.muscle import ForceLaw
 from shoulder_bench.simulator import BatchSimulator
@@ -60,9 +60,9 @@ def _slope(m: mujoco.MjModel) -> np.ndarray:
 @pytest.mark.parametrize("plane", [0.0, 30.0])
 def test_v2_locked_free_fall_equals_mj_step(plane):
     xml = mobl.model_xml(locked_plane_deg=plane, dynamics=True)
-    sim = BatchSimulator(None, 3, xml=xml, prepare=mobl.harden_couplings, joint="shoulder_elv")
-    m = mobl.harden_couplings(mujoco.MjModel.from_xml_string(xml))
-    np.testing.assert_array_equal(sim.model.dof_invweight0, mobl.COUPLING_INVWEIGHT)  # the hook ran on its copy
+    sim = BatchSimulator(None, 3, xml=xml, prepare=arm.harden_couplings, joint="shoulder_elv")
+    m = arm.harden_couplings(mujoco.MjModel.from_xml_string(xml))
+    np.testing.assert_array_equal(sim.model.dof_invweight0, arm.COUPLING_INVWEIGHT)  # the hook ran on its copy
     assert (sim.nq, sim.nv, m.nq, sim.carry_warmstart) == (11, 11, 11, True)
     slope = _slope(m)
     start = np.radians([90.0, 60.0, 120.0])  # copy 0: the free fall from 90 deg; the others keep copies apart
@@ -104,7 +104,7 @@ def test_v2_with_the_law_equals_mj_step_through_the_callbacks():
 
     law = hill_v2.load_law(TASK_PLANE_V2)
     xml = mobl.model_xml(locked_plane_deg=TASK_PLANE_V2, dynamics=True, actuators=True)
-    sim = BatchSimulator(law, 2, xml=xml, prepare=mobl.harden_couplings, joint="shoulder_elv")
+    sim = BatchSimulator(law, 2, xml=xml, prepare=arm.harden_couplings, joint="shoulder_elv")
     m = hill_v2.compile_actuated(TASK_PLANE_V2)
     attach_law(m, law)  # default joint: shoulder_elv (the model has no abduction)
     install_callbacks()
