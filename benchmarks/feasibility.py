@@ -15,9 +15,9 @@ import numpy as np
 
 from shoulder_bench import statics
 from shoulder_bench.arm import arm
+from shoulder_bench.authoring.validate import static_capacity, static_reach
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
 from shoulder_bench.trajectory import load_test_set
-from shoulder_bench.validate import static_capacity, static_reach
 
 
 def main() -> None:

@@ -14,7 +14,8 @@ import time
 
 import numpy as np
 
-from shoulder_bench import arm, mobl, statics
+from shoulder_bench import arm, statics
+from shoulder_bench.authoring import mobl
 from shoulder_bench.muscle import ForceLaw
 from shoulder_bench.simulator import BatchSimulator
 

@@ -1,6 +1,7 @@
 """How to simulate the v2 (MoBL-ARMS) shoulder: options measured against the reduced-coordinate ground truth.
 
-The model: `shoulder_bench.mobl` (docs/model_v2.md). Passive motions only (gravity, no muscles, no damping), the
+The model: `shoulder_bench.authoring.mobl` (docs/model_v2.md). Passive motions only (gravity, no muscles, no damping),
+the
 humerus's own inertia (MoBL, 1.998 kg). Limits are off in the accuracy runs (the free fall swings through 0 deg
 elevation; the ground truth has no limits); the stability runs keep each option's limits.
 
@@ -34,7 +35,8 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from shoulder_bench import arm, mobl
+from shoulder_bench import arm
+from shoulder_bench.authoring import mobl
 
 FRAME = 0.1
 T_MOTION = 2.0

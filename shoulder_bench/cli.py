@@ -11,7 +11,7 @@ import threading
 # modules that provide add_parser(subparsers); a missing optional one is skipped
 COMMANDS = ["shoulder_bench.cli_tasks", "shoulder_bench.bench", "shoulder_bench.cli_train", "shoulder_bench.reproduce",
             "shoulder_bench.sweep", "shoulder_bench.eval.plots", "shoulder_bench.eval.leaderboard",
-            "shoulder_bench.render", "shoulder_bench.fem.cli", "shoulder_bench.validate"]
+            "shoulder_bench.render", "shoulder_bench.authoring.fem.cli", "shoulder_bench.authoring.validate"]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -2,7 +2,8 @@
 
 One implementation, written for arrays: the MuJoCo callback calls it with a batch of one, the batched simulator with
 the whole batch. Tables live in `models/muscles/<muscle>_<model>.npz` (model "fem": from the thin-shell FEM, the
-default; "hill": a Hill-type law fitted to the reference F0 and the MJCF moment arms, see `shoulder_bench.hill`).
+default; "hill": a Hill-type law fitted to the reference F0 and the MJCF moment arms, see
+`shoulder_bench.authoring.hill`).
 
 Table format (all arrays float64):
   angle_deg (K,)      uniform grid of abduction angles
@@ -44,7 +45,7 @@ def table_path(muscle: str, muscle_model: str, folder: Path | None = None) -> Pa
     return Path(folder or MODELS_DIR / "muscles") / f"{muscle}_{muscle_model}.npz"
 
 
-REBUILD = {"fem": "shoulder-bench fem build", "hill": "python -m shoulder_bench.hill"}
+REBUILD = {"fem": "shoulder-bench fem build", "hill": "python -m shoulder_bench.authoring.hill"}
 
 
 @contextlib.contextmanager

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from shoulder_bench import anatomy as A
-from shoulder_bench import bones
+from shoulder_bench.authoring import anatomy as A
+from shoulder_bench.authoring import bones
 
 ASSETS = Path(__file__).resolve().parents[1] / "models" / "assets"
 

@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from shoulder_bench import anatomy
-from shoulder_bench.fem.build import grid_dict, input_hash
-from shoulder_bench.fem.material import (
+from shoulder_bench.authoring import anatomy
+from shoulder_bench.authoring.fem.build import grid_dict, input_hash
+from shoulder_bench.authoring.fem.material import (
     Background,
     Blemker,
     Material,
@@ -18,8 +18,8 @@ from shoulder_bench.fem.material import (
     fibre_energy,
     nominal_fibre_stress,
 )
-from shoulder_bench.fem.shells import build_shell, force_check, grid_triangles, load_shell, mesh_sha256
-from shoulder_bench.fem.solver import MuscleProblem, SolverSettings
+from shoulder_bench.authoring.fem.shells import build_shell, force_check, grid_triangles, load_shell, mesh_sha256
+from shoulder_bench.authoring.fem.solver import MuscleProblem, SolverSettings
 
 MUSCLES_DIR = Path(__file__).resolve().parents[1] / "models" / "muscles"
 
@@ -101,7 +101,7 @@ def test_shell_reproduces_f0_and_is_deterministic(muscle):
 
 @pytest.mark.parametrize("key", ["nodes", "thickness", "fibres", "theta_ref_deg"])
 def test_mesh_hash_ignores_last_bits_and_catches_a_real_change(key):
-    """Hashes are taken after rounding (shoulder_bench.fem.HASH_QUANTUM): another CPU's last-bit differences
+    """Hashes are taken after rounding (shoulder_bench.authoring.fem.HASH_QUANTUM): another CPU's last-bit differences
     (~1e-15 relative) give the same hash, a change of 1e-6 relative a different one."""
     shell = build_shell("ssp", "coarse")
     digest, table_key = mesh_sha256(shell), input_hash(shell, Material(), SolverSettings(), grid_dict())
@@ -189,8 +189,8 @@ def test_coarse_mesh_reproduces_shipped_table_at_sampled_points():
 def test_coarse_rebuild_reproduces_the_shipped_table(tmp_path):
     """CI check: a coarse rebuild of the whole ssp table reproduces the shipped full table within 3 % of the
     muscle's peak |torque| at every grid point (the difference is discretisation error, docs/fem.md)."""
-    from shoulder_bench.fem.build import ACTIVATIONS, solve_table
-    from shoulder_bench.fem.shells import GRID_DEG
+    from shoulder_bench.authoring.fem.build import ACTIVATIONS, solve_table
+    from shoulder_bench.authoring.fem.shells import GRID_DEG
 
     shipped = _shipped("ssp")
     coarse = solve_table(build_shell("ssp", "coarse"), Material(), SolverSettings())
@@ -228,7 +228,7 @@ def no_work(monkeypatch):
     def started(*a, **k):
         raise AssertionError("work started before the arguments were checked")
     monkeypatch.setattr("shoulder_bench.model.moment_arms", started)
-    monkeypatch.setattr("shoulder_bench.fem.verify.held_out", started)
+    monkeypatch.setattr("shoulder_bench.authoring.fem.verify.held_out", started)
 
 
 def _copy_shipped(folder: Path, kinds=("fem", "shell")) -> None:
@@ -272,7 +272,7 @@ def test_build_on_up_to_date_tables_writes_nothing(tmp_path, capsys):
 
 
 def test_failed_build_leaves_nothing_half_written(tmp_path, monkeypatch):
-    from shoulder_bench.fem import build as fem_build
+    from shoulder_bench.authoring.fem import build as fem_build
 
     def fails(*a, **k):
         raise RuntimeError("solver died")
@@ -285,7 +285,7 @@ def test_failed_build_leaves_nothing_half_written(tmp_path, monkeypatch):
 def test_applied_torque_check_reports_each_muscle_on_the_shipped_tables():
     """Through MuJoCo: the applied torque is the table's force x moment arm, so the check's error is the mismatch
     `fem build` records; reported per muscle in N m and % of its peak (pass or fail is the model's business)."""
-    from shoulder_bench.fem.verify import applied_torques, applied_vs_fem, load_tables
+    from shoulder_bench.authoring.fem.verify import applied_torques, applied_vs_fem, load_tables
 
     tables = load_tables()
     applied = applied_torques()
@@ -305,7 +305,7 @@ def test_applied_torque_check_reports_each_muscle_on_the_shipped_tables():
 def test_applied_torque_check_fails_beyond_one_percent_of_the_peak(tmp_path, share, passes):
     """Synthetic tables whose FEM torque is exactly what MuJoCo applies (force x moment arm), then one pose of dmi
     moved by `share` of its peak: within 1 % the check passes, beyond it fails and names the pose."""
-    from shoulder_bench.fem.verify import applied_torques, applied_vs_fem, load_tables
+    from shoulder_bench.authoring.fem.verify import applied_torques, applied_vs_fem, load_tables
 
     _copy_shipped(tmp_path, ("fem",))
     for m in anatomy.MUSCLES:
@@ -323,7 +323,7 @@ def test_applied_torque_check_fails_beyond_one_percent_of_the_peak(tmp_path, sha
 
 
 def test_verify_report_lists_every_failure_and_sets_the_exit_status(capsys):
-    from shoulder_bench.fem.verify import report
+    from shoulder_bench.authoring.fem.verify import report
 
     assert report([("a", [("one", True, "1")]), ("b", [("two", True, "2")])]) == 0
     assert "[pass] one: 1" in capsys.readouterr().out
@@ -334,7 +334,7 @@ def test_verify_report_lists_every_failure_and_sets_the_exit_status(capsys):
 
 def test_verify_writes_its_figure_into_out(tmp_path, monkeypatch, capsys):
     """The figure goes to --out (default: the working directory), never into the package."""
-    from shoulder_bench.fem import verify as fem_verify
+    from shoulder_bench.authoring.fem import verify as fem_verify
 
     monkeypatch.setattr(fem_verify, "held_out", lambda tables: [("held-out (skipped here)", True, "")])
     monkeypatch.chdir(tmp_path)

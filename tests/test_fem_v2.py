@@ -1,4 +1,5 @@
-"""The v2 FEM tables (shoulder_bench.fem.v2, docs/fem.md "v2 sheets"): format, exact transmission, staleness, physics.
+"""The v2 FEM tables (shoulder_bench.authoring.fem.v2, docs/fem.md "v2 sheets"): format, exact transmission,
+staleness, physics.
 
 The tables here are built on the coarse sheets (once per module, a few seconds); the shipped full tables are checked
 for staleness by their input hash (no solving)."""
@@ -10,11 +11,11 @@ import json
 import numpy as np
 import pytest
 
-from shoulder_bench import hill_v2
-from shoulder_bench.fem import v2, v2_check
-from shoulder_bench.fem.v2_sheet import SheetProblem
+from shoulder_bench.authoring import hill_v2
+from shoulder_bench.authoring.fem import v2, v2_check
+from shoulder_bench.authoring.fem.v2_sheet import SheetProblem
+from shoulder_bench.authoring.validate import TASK_PLANE_V2
 from shoulder_bench.muscle import ForceLaw, MuscleTable, table_path
-from shoulder_bench.validate import TASK_PLANE_V2
 
 
 @pytest.fixture(scope="module")
@@ -68,7 +69,7 @@ def test_shipped_tables_are_up_to_date():
     want = v2.input_hashes(TASK_PLANE_V2)
     for t in hill_v2.TENDONS:
         meta = MuscleTable.load(table_path(t, "fem", v2.FOLDER)).meta
-        assert meta["input_hash"] == want[t], f"{t}: stale, rebuild with `python -m shoulder_bench.fem.v2`"
+        assert meta["input_hash"] == want[t], f"{t}: stale, rebuild with `python -m shoulder_bench.authoring.fem.v2`"
     assert v2_check.load_law("fem", TASK_PLANE_V2).muscles == hill_v2.TENDONS
     assert want != v2.input_hashes(TASK_PLANE_V2, coarse=True)
 

@@ -1,4 +1,5 @@
-"""The v2 Hill tables (shoulder_bench.hill_v2) and the exactness of the tendon transmission (docs/model_v2.md)."""
+"""The v2 Hill tables (shoulder_bench.authoring.hill_v2) and the exactness of the tendon transmission
+(docs/model_v2.md)."""
 from __future__ import annotations
 
 import json
@@ -7,10 +8,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from shoulder_bench import anatomy, arm, hill_v2, mjcf, mobl
+from shoulder_bench import arm
+from shoulder_bench.authoring import anatomy, hill_v2, mjcf, mobl
+from shoulder_bench.authoring.validate import TASK_PLANE_V2
 from shoulder_bench.model import MODELS_DIR
 from shoulder_bench.muscle import ForceLaw, MuscleTable, table_path
-from shoulder_bench.validate import TASK_PLANE_V2
 
 
 @pytest.fixture(scope="module")
@@ -78,7 +80,7 @@ def test_table_with_other_arms_is_refused(tmp_path):
         data = dict(z)
     data["moment_arm_m"] = data["moment_arm_m"] + 0.002
     np.savez(path, **data)
-    with pytest.raises(ValueError, match=r"isp_hill\.npz does not match.*python -m shoulder_bench\.hill_v2"):
+    with pytest.raises(ValueError, match=r"isp_hill\.npz does not match.*python -m shoulder_bench\.authoring\.hill_v2"):
         hill_v2.load_law(TASK_PLANE_V2, tmp_path)
 
 

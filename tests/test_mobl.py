@@ -10,11 +10,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from shoulder_bench import arm, mobl
-from shoulder_bench import mobl_data as D
-from shoulder_bench.kinematics import GH_COORDINATES, ShoulderPoser, moment_arms
+from shoulder_bench import arm
+from shoulder_bench.authoring import mobl
+from shoulder_bench.authoring import mobl_data as D
+from shoulder_bench.authoring.kinematics import GH_COORDINATES, ShoulderPoser, moment_arms
+from shoulder_bench.authoring.references import ReferenceTables
 from shoulder_bench.model import MODELS_DIR
-from shoulder_bench.references import ReferenceTables
 
 POSES = [(p, e, r) for p in (-30, 0, 30, 60, 90) for e in range(0, 151, 10) for r in (-45, 0, 30)]
 RECON_TOL_MM = 0.01  # the table is printed to 0.001 mm; we get <= 0.0005 mm (docs/model_v2.md)
@@ -42,8 +43,9 @@ def _max_diff(model, values, tendons, girdle):
 
 
 def test_shipped_model_is_generated_and_compiles(model):
-    assert (MODELS_DIR / mobl.FILENAME).read_text() == mobl.model_xml(), "run python -m shoulder_bench.mobl"
-    assert (MODELS_DIR / mobl.TASK_FILENAME).read_text() == mobl.task_model_xml(), "run python -m shoulder_bench.mobl"
+    rerun = "run python -m shoulder_bench.authoring.mobl"
+    assert (MODELS_DIR / mobl.FILENAME).read_text() == mobl.model_xml(), rerun
+    assert (MODELS_DIR / mobl.TASK_FILENAME).read_text() == mobl.task_model_xml(), rerun
     assert model.ntendon == 6 and model.nu == 0 and model.neq == 11
     assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4 and not model.geom_contype.any()
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 import shoulder_bench
-from shoulder_bench import anatomy, arm, mjcf
+from shoulder_bench import arm
+from shoulder_bench.authoring import anatomy, mjcf
 from shoulder_bench.model import (
     MODEL_PATH,
     attach_law,
@@ -20,7 +21,7 @@ from shoulder_bench.muscle import ForceLaw
 
 
 def test_shipped_mjcf_is_generated_from_anatomy():
-    assert MODEL_PATH.read_text() == mjcf.model_xml(), "run `python -m shoulder_bench.mjcf`"
+    assert MODEL_PATH.read_text() == mjcf.model_xml(), "run `python -m shoulder_bench.authoring.mjcf`"
 
 
 def test_model_structure():
@@ -169,7 +170,7 @@ def test_building_and_stepping_in_8_threads_at_once():
 
 def test_compile_model_from_text_with_a_prepare_hook():
     """xml= compiles MJCF text as a file would be (user actuators kept user); prepare runs on the compiled model."""
-    from shoulder_bench import mobl
+    from shoulder_bench.authoring import mobl
 
     xml = mobl.model_xml(locked_plane_deg=0, dynamics=True, actuators=True)
     seen = []
@@ -190,7 +191,7 @@ def test_compile_model_from_text_with_a_prepare_hook():
 
 
 def _v2_locked():
-    from shoulder_bench import mobl
+    from shoulder_bench.authoring import mobl
 
     xml = mobl.model_xml(locked_plane_deg=0, dynamics=True, actuators=True)
     return compile_model(xml=xml, prepare=arm.harden_couplings)
@@ -199,7 +200,8 @@ def _v2_locked():
 def test_the_law_joint_is_chosen_per_model():
     """v1: abduction; v2 (no abduction): shoulder_elv; the callback reads each model's own joint; a model with
     neither (or an unknown name) is refused, naming its joints."""
-    from shoulder_bench import hill_v2, model
+    from shoulder_bench import model
+    from shoulder_bench.authoring import hill_v2
 
     v1, v2 = load_model("hill"), _v2_locked()
     law2 = hill_v2.load_law(0)

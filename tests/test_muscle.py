@@ -6,7 +6,7 @@ import shutil
 import numpy as np
 import pytest
 
-from shoulder_bench import hill
+from shoulder_bench.authoring import hill
 from shoulder_bench.muscle import FV_MAX, ForceLaw, MuscleTable, replacing, table_path
 
 
@@ -91,7 +91,7 @@ def test_table_comparison_ignores_last_bits_and_catches_a_real_change():
 
 
 def test_missing_table_names_file_and_command(tmp_path):
-    with pytest.raises(FileNotFoundError, match=r"ssp_hill\.npz.*python -m shoulder_bench\.hill"):
+    with pytest.raises(FileNotFoundError, match=r"ssp_hill\.npz.*python -m shoulder_bench\.authoring\.hill"):
         ForceLaw.load("hill", folder=tmp_path)
 
 
@@ -141,7 +141,7 @@ def test_replacing_leaves_the_old_file_and_no_temporary_on_failure(tmp_path):
 def test_load_other_muscles_from_a_folder_against_given_arms():
     """With a folder, muscles outside anatomy (v2's tendons) load; `arms` (dict or callable) replaces v1's MJCF in
     the moment-arm check; without a folder only v1's names are accepted."""
-    from shoulder_bench import hill_v2
+    from shoulder_bench.authoring import hill_v2
 
     names = ("ssp", "ld2")
     tables = {t: MuscleTable.load(table_path(t, "hill", hill_v2.FOLDER)) for t in names}

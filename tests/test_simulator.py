@@ -5,7 +5,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from shoulder_bench import arm, mobl, statics
+from shoulder_bench import arm, statics
+from shoulder_bench.authoring import mobl
 from shoulder_bench.model import load_model
 from shoulder_bench.muscle import ForceLaw
 from shoulder_bench.simulator import BatchSimulator
@@ -98,9 +99,9 @@ def test_free_and_ball_joints_are_refused(joint):
 def test_v2_with_the_law_equals_mj_step_through_the_callbacks():
     """The switch-over's premise: the v2 locked variant with the v2 law, mj_step (RK4) through model.py's callbacks
     (law joint shoulder_elv) for 1 s at constant activations, equals BatchSimulator.frame_state to rounding."""
-    from shoulder_bench import hill_v2
+    from shoulder_bench.authoring import hill_v2
+    from shoulder_bench.authoring.validate import TASK_PLANE_V2
     from shoulder_bench.model import attach_law, install_callbacks
-    from shoulder_bench.validate import TASK_PLANE_V2
 
     law = hill_v2.load_law(TASK_PLANE_V2)
     xml = mobl.model_xml(locked_plane_deg=TASK_PLANE_V2, dynamics=True, actuators=True)

@@ -1,4 +1,5 @@
-"""The v2 static force estimate (shoulder_bench.statics_v2) and its wiring into `model validate --model v2`."""
+"""The v2 static force estimate (shoulder_bench.authoring.statics_v2) and its wiring into `model validate --model
+v2`."""
 from __future__ import annotations
 
 import csv
@@ -8,9 +9,10 @@ import math
 import numpy as np
 import pytest
 
-from shoulder_bench import anatomy, cli, references, statics, statics_v2, validate
-from shoulder_bench.kinematics import ShoulderPoser
-from shoulder_bench.mobl_data import REFERENCE_DIR
+from shoulder_bench import cli, statics
+from shoulder_bench.authoring import anatomy, references, statics_v2, validate
+from shoulder_bench.authoring.kinematics import ShoulderPoser
+from shoulder_bench.authoring.mobl_data import REFERENCE_DIR
 
 V2_PATH = validate.MODEL_PATH.parent / "shoulder_v2.xml"
 

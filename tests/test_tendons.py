@@ -1,4 +1,5 @@
-"""The parent's muscle parameters and the rigid-tendon fibre stretch on the v2 paths (shoulder_bench.tendons)."""
+"""The parent's muscle parameters and the rigid-tendon fibre stretch on the v2 paths
+(shoulder_bench.authoring.tendons)."""
 from __future__ import annotations
 
 import csv
@@ -8,9 +9,9 @@ import math
 import numpy as np
 import pytest
 
-from shoulder_bench import tendons
-from shoulder_bench.kinematics import ShoulderPoser
-from shoulder_bench.mobl_data import MUSCLES, REFERENCE_DIR
+from shoulder_bench.authoring import tendons
+from shoulder_bench.authoring.kinematics import ShoulderPoser
+from shoulder_bench.authoring.mobl_data import MUSCLES, REFERENCE_DIR
 
 # ../shared/reference/shoulder_parameters.md (the MoBL-ARMS F0s, N)
 SHOULDER_PARAMETERS_F0 = {"SUPSP": 499.2, "INFSP": 1075.8, "DELT2": 1103.5, "LAT1": 290.5, "LAT2": 317.5,

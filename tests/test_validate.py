@@ -4,7 +4,8 @@ import json
 import numpy as np
 import pytest
 
-from shoulder_bench import anatomy, cli, references, statics, validate, validate_v2
+from shoulder_bench import cli, statics
+from shoulder_bench.authoring import anatomy, references, validate, validate_v2
 from shoulder_bench.model import tendon_geometry
 
 V1_PATH = validate.MODEL_PATH  # models/shoulder.xml, model v1 (kept for comparison)
@@ -228,7 +229,7 @@ def v2_report():
 def test_v2_moment_arms_are_kinematics_moment_arms(v2_report):
     import mujoco
 
-    from shoulder_bench.kinematics import moment_arms
+    from shoulder_bench.authoring.kinematics import moment_arms
 
     model = mujoco.MjModel.from_xml_path(str(V2_PATH))
     ma = v2_report["moment_arms"]
@@ -252,7 +253,7 @@ def test_v2_moment_arms_are_kinematics_moment_arms(v2_report):
 
 
 def test_v2_force_targets_are_the_static_estimate_per_plane(v2_report):
-    from shoulder_bench import statics_v2
+    from shoulder_bench.authoring import statics_v2
 
     by_id = {t["id"]: t for t in v2_report["targets"]}
     force = ["rest_angle", "passive_torque"] + [f"peak_torque/{m}" for m in anatomy.MUSCLES]

@@ -1,6 +1,7 @@
 """The MoBL-ARMS parent's own musculotendon lengths and rigid-tendon fibre stretch, for docs/tendons.md.
 
-Cross-check for `python -m shoulder_bench.tendons` (which uses the v2 model's paths, MyoArm's): the same poses and
+Cross-check for `python -m shoulder_bench.authoring.tendons` (which uses the v2 model's paths, MyoArm's): the same
+poses and
 the same formula on the parent's own paths (its wrap objects and moving path points), computed by OpenSim.
 
     python -m venv /tmp/osimvenv && /tmp/osimvenv/bin/pip install opensim==4.6 numpy   # not a project dependency

@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from shoulder_bench import anatomy
-from shoulder_bench.fem import output_folder
+from shoulder_bench.authoring import anatomy
+from shoulder_bench.authoring.fem import output_folder
 
 Check = tuple[str, bool, str]  # (what is checked, passed, the measured value)
 
@@ -72,9 +72,9 @@ def interpolate(table: dict, angle_deg: float, activation: float) -> float:
 
 def held_out(tables: dict, muscles=anatomy.MUSCLES) -> list[Check]:
     """Re-solve the held-out points with the same mesh resolution, material and solver as each table."""
-    from shoulder_bench.fem.material import Material
-    from shoulder_bench.fem.shells import build_shell
-    from shoulder_bench.fem.solver import MuscleProblem, SolverSettings
+    from shoulder_bench.authoring.fem.material import Material
+    from shoulder_bench.authoring.fem.shells import build_shell
+    from shoulder_bench.authoring.fem.solver import MuscleProblem, SolverSettings
 
     rows = []
     for m in muscles:
@@ -97,8 +97,8 @@ CONVERGENCE_POINTS = ((30.0, 1.0), (90.0, 1.0), (60.0, 0.5))
 def convergence(muscle: str = "ssp") -> list[tuple]:
     """Torque at a few (angle, activation) points on successively halved meshes, with the observed order
     p = log2(|t_h - t_h/2| / |t_h/2 - t_h/4|). Prints a table; returns its rows."""
-    from shoulder_bench.fem.shells import build_shell
-    from shoulder_bench.fem.solver import MuscleProblem
+    from shoulder_bench.authoring.fem.shells import build_shell
+    from shoulder_bench.authoring.fem.solver import MuscleProblem
 
     torques = {}
     for res in CONVERGENCE_RESOLUTIONS:

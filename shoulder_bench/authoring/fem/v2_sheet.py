@@ -29,10 +29,10 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from shoulder_bench.fem.material import Blemker, Material
-from shoulder_bench.fem.membrane import _kinematics, membrane_forces
-from shoulder_bench.fem.shells import grid_triangles
-from shoulder_bench.fem.solver import MuscleProblem, NoConvergence, SolverSettings
+from shoulder_bench.authoring.fem.material import Blemker, Material
+from shoulder_bench.authoring.fem.membrane import _kinematics, membrane_forces
+from shoulder_bench.authoring.fem.shells import grid_triangles
+from shoulder_bench.authoring.fem.solver import MuscleProblem, NoConvergence, SolverSettings
 
 WIDTH_OVER_LENGTH = 1.0  # W / L0: a square sheet until the real footprints (next issue) give W
 RESOLUTION = {"full": (33, 33), "coarse": (9, 9)}  # nodes along the axis, across

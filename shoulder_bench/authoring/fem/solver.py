@@ -19,9 +19,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from shoulder_bench import anatomy
-from shoulder_bench.fem.material import Material
-from shoulder_bench.fem.membrane import ElementKernel, Membrane, membrane_tangent
+from shoulder_bench.authoring import anatomy
+from shoulder_bench.authoring.fem.material import Material
+from shoulder_bench.authoring.fem.membrane import ElementKernel, Membrane, membrane_tangent
 
 
 @dataclass(frozen=True)
@@ -146,7 +146,7 @@ class MuscleProblem:
         return e + ec, g + gc, (h + self.reg_matrix + hc).tocsr()
 
     def energy(self, x: np.ndarray, activation: float) -> float:
-        from shoulder_bench.fem.membrane import membrane_energy
+        from shoulder_bench.authoring.fem.membrane import membrane_energy
 
         u = (x - self.X).ravel()
         return membrane_energy(self.mem, self.kernel, x, activation) + 0.5 * float(u @ (self.reg_matrix @ u)) \
@@ -169,7 +169,7 @@ class MuscleProblem:
 
     # -- Newton ------------------------------------------------------------------------------------------------------
     def gradient(self, x: np.ndarray, activation: float) -> np.ndarray:
-        from shoulder_bench.fem.membrane import membrane_forces
+        from shoulder_bench.authoring.fem.membrane import membrane_forces
 
         u = (x - self.X).ravel()
         return membrane_forces(self.mem, self.kernel, x, activation).ravel() + self.reg_matrix @ u + self._contact(x)[1]

@@ -15,7 +15,7 @@ Method (../shared/reference/moment_arms/README.md section 4, models/reference/RE
 Positive r: tension tends to increase the coordinate (shoulder_elv: elevation; shoulder_rot: internal rotation;
 elv_angle: the plane moves anteriorly).
 
-    >>> from shoulder_bench.kinematics import ShoulderPoser, moment_arms
+    >>> from shoulder_bench.authoring.kinematics import ShoulderPoser, moment_arms
     >>> r = moment_arms(model, ["ssp", "dmi"], [(0, 30, 0), (30, 90, 0)], girdle="coupled")
     >>> r["shoulder_elv"].shape   # (poses, tendons), mm
 """

@@ -2,8 +2,10 @@
 and the literature targets of the model-v2 issue (docs/validation.md); exit status 1 when any target is missed.
 
 The default model is v2 (models/shoulder_v2.xml, the tasks' geometry: the tasks run its locked 1-DOF variant
-models/shoulder_v2_task.xml, shoulder_bench.arm), validated by shoulder_bench.validate_v2: every moment-arm target in
-both candidate task planes, its force targets from a static rigid-tendon Hill estimate (shoulder_bench.statics_v2),
+models/shoulder_v2_task.xml, shoulder_bench.arm), validated by shoulder_bench.authoring.validate_v2: every moment-arm
+target in
+both candidate task planes, its force targets from a static rigid-tendon Hill estimate
+(shoulder_bench.authoring.statics_v2),
 with the same force quantities of the tasks' own tables (FEM by default) shown beside them. `--model
 models/shoulder.xml` validates model v1 (the hand-placed hinge the tasks ran before, kept for comparison).
 
@@ -20,7 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from shoulder_bench import anatomy, references, statics
+from shoulder_bench import statics
+from shoulder_bench.authoring import anatomy, references
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL, JOINT, MODEL_PATH, MODELS_DIR, compile_model, tendon_geometry
 
 ELEVATIONS = np.arange(0.0, 121.0, 10.0)  # the references' grid over the issue's range, 0-120 deg
@@ -110,7 +113,7 @@ def inspect_model(path: Path | str = DEFAULT_MODEL) -> ModelView:
     raise ValueError(f"{path}: validate knows the v1 model (one '{JOINT}' hinge about +x) and the v2 kinematic "
                      f"model (joints {', '.join(V2_JOINTS)}, girdle equalities, tendons {', '.join(V2_TENDONS)}); "
                      f"this model has joints {joints} and tendons {tendons}: teach "
-                     "shoulder_bench.validate.inspect_model its coordinates, planes and girdle")
+                     "shoulder_bench.authoring.validate.inspect_model its coordinates, planes and girdle")
 
 
 def model_moment_arms(angles_deg, path: Path | str = MODEL_PATH) -> dict[str, np.ndarray]:
@@ -381,7 +384,7 @@ def evaluate(muscle_model: str = DEFAULT_MUSCLE_MODEL, path: Path | str = DEFAUL
 
     view = inspect_model(path)
     if view.version == "2":
-        from shoulder_bench import validate_v2
+        from shoulder_bench.authoring import validate_v2
 
         return validate_v2.evaluate(view, _shown(path), path, muscle_model)
     refs = references.load()
@@ -409,13 +412,13 @@ def evaluate(muscle_model: str = DEFAULT_MUSCLE_MODEL, path: Path | str = DEFAUL
 
 
 def _run(args) -> int:
-    from shoulder_bench.fem import output_folder
+    from shoulder_bench.authoring.fem import output_folder
 
     out = output_folder(args.out, "--out")
     if not Path(args.model).is_file():
         raise FileNotFoundError(f"--model {args.model}: no such file; give an MJCF (models/shoulder_v2.xml, the "
                                 "default, or models/shoulder.xml)")
-    from shoulder_bench.validate_report import print_report, write_figures
+    from shoulder_bench.authoring.validate_report import print_report, write_figures
 
     report = evaluate(args.muscle_model, args.model)
     report["figures"] = [str(p) for p in write_figures(report, out)]

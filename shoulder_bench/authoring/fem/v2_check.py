@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from shoulder_bench import hill_v2, statics_v2
+from shoulder_bench.authoring import hill_v2, statics_v2
 from shoulder_bench.muscle import ForceLaw, MuscleTable, table_path
 
 TENDONS = hill_v2.TENDONS

@@ -5,7 +5,7 @@ length minus a tendon slack length chosen so that the fibres are at optimal leng
 force-length curve is exp(-(l-1)^2 / 0.45), the passive curve (exp(4 (l-1) / 0.6) - 1) / (exp(4) - 1) for l > 1.
 F0 from MoBL-ARMS (anatomy.F0). The force-velocity factor is applied at run time by `muscle.ForceLaw`.
 
-`python -m shoulder_bench.hill` rewrites models/muscles/*_hill.npz.
+`python -m shoulder_bench.authoring.hill` rewrites models/muscles/*_hill.npz.
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from shoulder_bench import anatomy
+from shoulder_bench.authoring import anatomy
 from shoulder_bench.model import MODEL_PATH, tendon_geometry
 
 ANGLE_GRID_DEG = np.arange(-10.0, 160.0 + 1e-9, 5.0)

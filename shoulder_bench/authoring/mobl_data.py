@@ -19,7 +19,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from shoulder_bench.references import REFERENCE_DIR, open_table
+from shoulder_bench.authoring.references import REFERENCE_DIR, open_table
 
 SOURCE = "myoarm"  # MyoArm's rows (MoBL-ARMS converted to MuJoCo; its spheres/cylinders stand in for ellipsoids)
 CHAIN = ("thorax", "clavicle", "clavphant", "scapula", "scapphant", "humphant", "humphant1", "humerus")

@@ -3,7 +3,7 @@
 Why hand-built: the benchmark must run offline, and no public shoulder segmentation can be downloaded at run time;
 BodyParts3D, which the paper renders, is not shipped with this repository. So the four meshes are built here from
 analytic primitives (spheres, ellipsoids, tubes swept along splines, thick plates) on the same landmarks as the MJCF
-and the muscle paths, and written as small binary STL files. `python -m shoulder_bench.bones` regenerates
+and the muscle paths, and written as small binary STL files. `python -m shoulder_bench.authoring.bones` regenerates
 `models/assets/*.stl`; the output is deterministic (no randomness), and a test checks the shipped files are current.
 
 Simplifications (shapes are for display and clearance, not for contact):
@@ -25,7 +25,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from shoulder_bench import anatomy as A
+from shoulder_bench.authoring import anatomy as A
+from shoulder_bench.paths import MODELS_DIR
 
 ASSET_NAMES = ("humerus", "scapula", "clavicle", "thorax")
 
@@ -305,5 +306,5 @@ def build_bone_meshes(out_dir: Path | str) -> dict[str, Path]:
 
 
 if __name__ == "__main__":
-    for name, p in build_bone_meshes(Path(__file__).resolve().parents[1] / "models" / "assets").items():
+    for name, p in build_bone_meshes(MODELS_DIR / "assets").items():
         print(f"{name}: {p} ({p.stat().st_size} bytes)")

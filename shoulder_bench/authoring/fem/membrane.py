@@ -19,7 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 import torch
 
-from shoulder_bench.fem.material import Material, background_energy, fibre_energy
+from shoulder_bench.authoring.fem.material import Material, background_energy, fibre_energy
 
 
 @dataclass

@@ -8,7 +8,8 @@ apply along the MJCF tendon so that its torque equals the FEM torque at grid poi
 Caching: a table whose meta.input_hash equals the hash of (shell mesh, material, solver settings, grid, code version)
 is not re-solved; only its moment arms and force_N are refreshed from the current MJCF (and when those are unchanged
 too, nothing is written). The hash is taken after
-rounding (mesh arrays to 1e-10 of their unit, scalars to 9 significant digits: shoulder_bench.fem), so it is the same
+rounding (mesh arrays to 1e-10 of their unit, scalars to 9 significant digits: shoulder_bench.authoring.fem), so it is
+the same
 on every CPU.
 
 Every file is written atomically (temporary file, then os.replace): a build that fails leaves the files it had not
@@ -24,11 +25,11 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from shoulder_bench import anatomy
-from shoulder_bench.fem import CODE_VERSION, output_folder, rounded
-from shoulder_bench.fem.material import Material
-from shoulder_bench.fem.shells import GRID_DEG, build_shell, load_shell, mesh_sha256, save_shell, shell_path
-from shoulder_bench.fem.solver import MuscleProblem, SolverSettings
+from shoulder_bench.authoring import anatomy
+from shoulder_bench.authoring.fem import CODE_VERSION, output_folder, rounded
+from shoulder_bench.authoring.fem.material import Material
+from shoulder_bench.authoring.fem.shells import GRID_DEG, build_shell, load_shell, mesh_sha256, save_shell, shell_path
+from shoulder_bench.authoring.fem.solver import MuscleProblem, SolverSettings
 from shoulder_bench.muscle import replacing
 
 ACTIVATIONS = np.array([0.0, 0.1, 0.25, 0.5, 0.75, 1.0])

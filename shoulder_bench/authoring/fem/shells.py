@@ -26,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from shoulder_bench import anatomy
-from shoulder_bench.fem import quantised
-from shoulder_bench.fem.material import Blemker
+from shoulder_bench.authoring import anatomy
+from shoulder_bench.authoring.fem import quantised
+from shoulder_bench.authoring.fem.material import Blemker
 
 R_HEAD = anatomy.HUMERAL_HEAD_RADIUS
 
@@ -157,7 +157,8 @@ def build_shell(muscle: str, resolution: str | tuple[int, int] = "full") -> dict
 
 
 def mesh_sha256(shell: dict) -> str:
-    """SHA-256 of the mesh after rounding its floats to HASH_QUANTUM (shoulder_bench.fem): the same on every CPU."""
+    """SHA-256 of the mesh after rounding its floats to HASH_QUANTUM (shoulder_bench.authoring.fem): the same on every
+    CPU."""
     h = hashlib.sha256()
     for key in ("nodes", "triangles", "fibres", "thickness", "origin_nodes", "insertion_nodes", "theta_ref_deg"):
         a = quantised(shell[key])

@@ -6,7 +6,7 @@ import sys
 import time
 from pathlib import Path
 
-from shoulder_bench import anatomy
+from shoulder_bench.authoring import anatomy
 
 
 def _muscle(name: str) -> str:
@@ -16,7 +16,7 @@ def _muscle(name: str) -> str:
 
 
 def _build(args) -> int:
-    from shoulder_bench.fem.build import build
+    from shoulder_bench.authoring.fem.build import build
 
     muscles = (args.muscle,) if args.muscle else anatomy.MUSCLES
     t0 = time.perf_counter()
@@ -34,13 +34,13 @@ def _build(args) -> int:
 
 
 def _verify(args) -> int:
-    from shoulder_bench.fem.verify import verify
+    from shoulder_bench.authoring.fem.verify import verify
 
     return verify(folder=args.tables, out=args.out, figure=not args.no_figure)
 
 
 def _convergence(args) -> int:
-    from shoulder_bench.fem.verify import convergence
+    from shoulder_bench.authoring.fem.verify import convergence
 
     convergence(args.muscle)
     return 0
@@ -68,7 +68,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    """Stand-alone entry (`python -m shoulder_bench.fem.cli build ...`), same arguments as `shoulder-bench fem`."""
+    """Stand-alone entry (`python -m shoulder_bench.authoring.fem.cli build ...`), same arguments as `shoulder-bench
+    fem`."""
     parser = argparse.ArgumentParser(prog="shoulder-bench")
     add_parser(parser.add_subparsers(dest="command", required=True))
     args = parser.parse_args(["fem", *(argv if argv is not None else sys.argv[1:])])

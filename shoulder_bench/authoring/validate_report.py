@@ -1,5 +1,6 @@
-"""The report of `shoulder-bench model validate`: the text tables and the overlay figures (shoulder_bench.validate
-and, for the v2 model, shoulder_bench.validate_v2 compute everything they show)."""
+"""The report of `shoulder-bench model validate`: the text tables and the overlay figures
+(shoulder_bench.authoring.validate
+and, for the v2 model, shoulder_bench.authoring.validate_v2 compute everything they show)."""
 from __future__ import annotations
 
 import sys
@@ -7,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from shoulder_bench import anatomy, references
-from shoulder_bench.validate import ENVELOPE_MARGIN_MM, NOT_MODELLED, PASSIVE_MAX_DEG, PLANE_NAMES
+from shoulder_bench.authoring import anatomy, references
+from shoulder_bench.authoring.validate import ENVELOPE_MARGIN_MM, NOT_MODELLED, PASSIVE_MAX_DEG, PLANE_NAMES
 
 COLOURS = {"mobl_arms": "tab:blue", "myoarm": "tab:green", "mobl_opensim": "tab:orange"}
 COLS = [0, 30, 60, 90, 120]

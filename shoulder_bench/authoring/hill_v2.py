@@ -20,7 +20,7 @@ on the law's joint shoulder_elv). Tables from another source
 
 ld1-3 are three tables and three actuators: driving them with one "ld" activation is for the tasks' switch-over.
 
-`python -m shoulder_bench.hill_v2 [--plane 0]` rewrites the tables (default plane: validate.TASK_PLANE_V2).
+`python -m shoulder_bench.authoring.hill_v2 [--plane 0]` rewrites the tables (default plane: validate.TASK_PLANE_V2).
 """
 from __future__ import annotations
 
@@ -31,8 +31,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from shoulder_bench import anatomy, arm, mobl, references, statics_v2, tendons
-from shoulder_bench.hill import ACTIVATION_GRID, ANGLE_GRID_DEG
+from shoulder_bench import arm
+from shoulder_bench.authoring import anatomy, mobl, references, statics_v2, tendons
+from shoulder_bench.authoring.hill import ACTIVATION_GRID, ANGLE_GRID_DEG
 from shoulder_bench.model import MODELS_DIR, attach_law, compile_model, install_callbacks
 from shoulder_bench.muscle import ForceLaw, replacing, table_path
 
@@ -46,7 +47,7 @@ PROVENANCE = ("MoBL-ARMS parent (models/reference/mobl_arms_parent_muscles.csv, 
 
 
 def default_plane() -> int:
-    from shoulder_bench.validate import TASK_PLANE_V2
+    from shoulder_bench.authoring.validate import TASK_PLANE_V2
 
     return int(TASK_PLANE_V2)
 
@@ -93,7 +94,7 @@ def build_tables(plane_deg: float | None = None, folder: Path | None = None) -> 
     return written
 
 
-REBUILD_V2 = {"hill": "python -m shoulder_bench.hill_v2", "fem": "python -m shoulder_bench.fem.v2"}
+REBUILD_V2 = {"hill": "python -m shoulder_bench.authoring.hill_v2", "fem": "python -m shoulder_bench.authoring.fem.v2"}
 
 
 def load_law(plane_deg: float | None = None, folder: Path | None = None, source: str = "hill") -> ForceLaw:

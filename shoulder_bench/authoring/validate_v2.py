@@ -3,11 +3,12 @@ reference moment arms and the model-v2 issue's targets (docs/validation.md). `mo
 model; the tasks run its locked 1-DOF variant (`models/shoulder_v2_task.xml`, coronal plane, rotation 0, the same
 generator and paths: shoulder_bench.arm), which validate does not take itself (it lacks the rotation and plane DOFs).
 
-Moment arms come from `shoulder_bench.kinematics.moment_arms` (the reference tables' own method: GH coordinates set,
+Moment arms come from `shoulder_bench.authoring.kinematics.moment_arms` (the reference tables' own method: GH
+coordinates set,
 slaved girdle coordinates from the model's equality polynomials, central differences h = 0.25 deg, one-sided across a
 path jump) in all three DOFs (shoulder_elv, shoulder_rot, elv_angle), in the coronal (0 deg) and scapular (30 deg)
 planes, rotation 0, girdle coupled and fixed. ld is the F0-weighted mean of the tendons ld1-3 with the parent's F0
-(`ReferenceTables.v2_weights`), the rule `shoulder_bench.references` applies to the references' LAT1-3.
+(`ReferenceTables.v2_weights`), the rule `shoulder_bench.authoring.references` applies to the references' LAT1-3.
 
 The v2 geometry is MyoArm's, reconstructed exactly (docs/model_v2.md; only the clavicle sits at MoBL's SC location,
 which changes ld1-3 coupled about shoulder_elv): its MyoArm comparison is close to a tautology, and so are the envelope
@@ -17,7 +18,8 @@ ones; the report adds the envelope without MyoArm (`envelope_without_myoarm`, sh
 The tasks' plane of elevation for v2 is `validate.TASK_PLANE_V2` (None: not chosen). Every target in the tasks'
 plane is evaluated in both candidate planes and shown per plane; it passes only in the chosen plane, so with None it
 fails with "tasks' plane not chosen yet". The force targets (rest angle, passive torque, peak isometric torques) and
-the capacity ratio and ssp's reach are judged on `shoulder_bench.statics_v2`, a static rigid-tendon Hill estimate with
+the capacity ratio and ssp's reach are judged on `shoulder_bench.authoring.statics_v2`, a static rigid-tendon Hill
+estimate with
 the parent's parameters and the Blemker curves (statics_v2.LABEL), per candidate plane, combined like the moment-arm
 targets. The same quantities of the tasks' own tables (`arm.arm().load_law(muscle_model)`: models/muscles_v2, FEM by
 default, built for the tasks' plane only, against the tasks' arm's gravity) are shown beside each force target under
@@ -28,9 +30,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from shoulder_bench import anatomy, references
-from shoulder_bench import validate as V
-from shoulder_bench.kinematics import moment_arms
+from shoulder_bench.authoring import anatomy, references
+from shoulder_bench.authoring import validate as V
+from shoulder_bench.authoring.kinematics import moment_arms
 from shoulder_bench.model import compile_model
 
 TAUTOLOGY = ("v2's geometry is MyoArm's, reconstructed exactly (docs/model_v2.md; only ld differs: coupled about "
@@ -148,7 +150,8 @@ def tables_section(muscle_model: str, refs, task_plane: int | None, cond: str) -
     estimate, and the force targets evaluated on them (shown, no target). None when the tasks' plane is not the tables'
     plane (or not chosen)."""
     from shoulder_bench import arm as A
-    from shoulder_bench import statics, statics_v2
+    from shoulder_bench import statics
+    from shoulder_bench.authoring import statics_v2
 
     if task_plane is None or task_plane != A.TASK_PLANE_DEG:
         return None
@@ -168,7 +171,7 @@ def evaluate(view: V.ModelView, shown: str, path, muscle_model: str = "fem") -> 
     """The v2 report (the same keys as v1's; the force quantities are the tasks' plane's, None while it is not
     chosen; every plane's under `statics`; the tasks' `muscle_model` tables' under `tables`, and beside each force
     target)."""
-    from shoulder_bench import statics_v2
+    from shoulder_bench.authoring import statics_v2
 
     model = compile_model(path)
     refs = references.load()

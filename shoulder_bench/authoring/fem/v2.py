@@ -1,4 +1,4 @@
-"""FEM tables of the v2 muscles: `python -m shoulder_bench.fem.v2 [--coarse] [--out DIR] [--plane P]`.
+"""FEM tables of the v2 muscles: `python -m shoulder_bench.authoring.fem.v2 [--coarse] [--out DIR] [--plane P]`.
 
 One table per v2 tendon (ssp, isp, dmi, ld1, ld2, ld3) of the locked 1-DOF variant, `models/muscles_v2/<t>_fem.npz`,
 in hill_v2's format (angle_deg = hill.ANGLE_GRID_DEG, activation, force_N, torque_Nm, moment_arm_m, meta) so that
@@ -13,7 +13,8 @@ in hill_v2's format (angle_deg = hill.ANGLE_GRID_DEG, activation, force_N, torqu
   the length the sheet's extent comes from, so the torque MuJoCo applies equals torque_Nm (`applied_vs_table`).
 
 Caching: meta.input_hash = SHA-256 of (sheet mesh hash, quantised sheet extents, sheet spec, material, solver
-settings, grid, CODE_VERSION), rounded as shoulder_bench.fem says; a table whose hash matches is not re-solved (its
+settings, grid, CODE_VERSION), rounded as shoulder_bench.authoring.fem says; a table whose hash matches is not
+re-solved (its
 moment arms and torque are refreshed if the model's arms changed; otherwise nothing is written). docs/fem.md, "v2
 sheets".
 """
@@ -28,14 +29,15 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from shoulder_bench import arm, hill_v2, tendons
-from shoulder_bench.fem import output_folder, quantised, rounded
-from shoulder_bench.fem.build import NOISE_FORCE_N
-from shoulder_bench.fem.material import Material
-from shoulder_bench.fem.shells import mesh_sha256
-from shoulder_bench.fem.solver import SolverSettings
-from shoulder_bench.fem.v2_sheet import RESOLUTION, SheetProblem, SheetSpec, build_sheet
-from shoulder_bench.hill import ANGLE_GRID_DEG
+from shoulder_bench import arm
+from shoulder_bench.authoring import hill_v2, tendons
+from shoulder_bench.authoring.fem import output_folder, quantised, rounded
+from shoulder_bench.authoring.fem.build import NOISE_FORCE_N
+from shoulder_bench.authoring.fem.material import Material
+from shoulder_bench.authoring.fem.shells import mesh_sha256
+from shoulder_bench.authoring.fem.solver import SolverSettings
+from shoulder_bench.authoring.fem.v2_sheet import RESOLUTION, SheetProblem, SheetSpec, build_sheet
+from shoulder_bench.authoring.hill import ANGLE_GRID_DEG
 from shoulder_bench.muscle import replacing, table_path
 
 CODE_VERSION = "fem-v2-1"  # bump when a change alters solutions; part of every table's input hash
@@ -178,9 +180,9 @@ def _write(path, fem, L_mt, extent, arm, meta) -> None:
 
 
 def main(argv=None) -> int:
-    from shoulder_bench.fem import v2_check
+    from shoulder_bench.authoring.fem import v2_check
 
-    ap = argparse.ArgumentParser(prog="python -m shoulder_bench.fem.v2",
+    ap = argparse.ArgumentParser(prog="python -m shoulder_bench.authoring.fem.v2",
                                  description="FEM tables of the v2 muscles (models/muscles_v2/<tendon>_fem.npz)")
     ap.add_argument("--coarse", action="store_true", help=f"coarse sheets {RESOLUTION['coarse']} (tests); needs --out")
     ap.add_argument("--out", type=Path, default=None, help=f"output folder, created if missing (default {FOLDER})")

@@ -2,10 +2,12 @@
 parent's parameters and the Blemker curves the FEM uses (no simulation, no FEM; docs/validation.md).
 
 Per tendon (ssp, isp, dmi, ld1-3) with the parent's F0, l_opt, l_ts and a0 (`models/reference/mobl_arms_parent_
-muscles.csv`, `shoulder_bench.tendons.load_parent`), at elevation q in a plane of elevation, rotation 0, girdle coupled:
+muscles.csv`, `shoulder_bench.authoring.tendons.load_parent`), at elevation q in a plane of elevation, rotation 0,
+girdle coupled:
 
 * L_MT(q): MuJoCo `ten_length` of the v2 model posed by `kinematics.ShoulderPoser`;
-* fibres as `shoulder_bench.tendons` (rigid tendon at l_ts, constant-width pennation): l_f cos a = L_MT - l_ts,
+* fibres as `shoulder_bench.authoring.tendons` (rigid tendon at l_ts, constant-width pennation): l_f cos a = L_MT -
+l_ts,
   l_f sin a = l_opt sin a0, lam = l_f / l_opt;
 * tendon force F(q, a) = F0 (a f_active(lam) + f_passive(lam)) cos a, cos a = (L_MT - l_ts) / l_f (0 where the tendon
   is slack): the fibre force F0 f (Blemker's nominal stress sigma_max f times the PCSA, `fem.material`) projected on
@@ -17,13 +19,14 @@ Gravity: the humerus only (1.998 kg; the 0.1 g placeholder girdle bodies exclude
 (`mobl.model_xml(locked_plane_deg=plane)`, the tasks' model), tau_g = -dPE/dq = -m g dz_COM/dq along the coupled path
 (the GH centre moves with the rhythm), from the COM Jacobian and the coupling chain rule.
 
-Quantities, as `shoulder_bench.validate` defines them for v1: the relaxed rest angle (activations 0: from 0 deg the
+Quantities, as `shoulder_bench.authoring.validate` defines them for v1: the relaxed rest angle (activations 0: from 0
+deg the
 first zero of passive + gravity torque in the direction it pushes, i.e. a crossing with negative slope, linear
 interpolation on the STEP_DEG grid; or the end of -10..160), the net passive torque over 0-20 deg (0.5 deg), each
 muscle's peak isometric torque (a = 1 minus a = 0, signed value of largest magnitude over 0-120 deg every 1 deg) and
 its ratio to F0 x the peak moment arm of the reference it follows (`references.FOLLOWS`, `anatomy.F0`), the ssp/dmi
 capacity ratio at 0, 5 and 10 deg, and ssp's static reach (`validate.static_reach`: ssp alone, on or off whichever
-helps, every angle from 0 held against gravity). `python -m shoulder_bench.statics_v2` prints the table.
+helps, every angle from 0 held against gravity). `python -m shoulder_bench.authoring.statics_v2` prints the table.
 """
 from __future__ import annotations
 
@@ -34,9 +37,10 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from shoulder_bench import anatomy, arm, mobl, references, statics, tendons
-from shoulder_bench.fem.material import f_active, f_passive
-from shoulder_bench.kinematics import ShoulderPoser, moment_arms
+from shoulder_bench import arm, statics
+from shoulder_bench.authoring import anatomy, mobl, references, tendons
+from shoulder_bench.authoring.fem.material import f_active, f_passive
+from shoulder_bench.authoring.kinematics import ShoulderPoser, moment_arms
 
 LABEL = ("static rigid-tendon Hill estimate (parent's parameters, Blemker curves); the FEM tables replace it later")
 RANGE_DEG = (-10.0, 160.0)

@@ -1,7 +1,8 @@
 """Fibre stretch of the v2 muscles with the MoBL-ARMS parent's fibre and tendon lengths (rigid tendon).
 
 For each tendon of `models/shoulder_v2.xml` (MyoArm's paths: ssp, isp, dmi, ld1-3) the musculotendon length L_MT(q)
-is MuJoCo's `ten_length` at poses set by `shoulder_bench.kinematics.ShoulderPoser`. The parent's muscles are OpenSim
+is MuJoCo's `ten_length` at poses set by `shoulder_bench.authoring.kinematics.ShoulderPoser`. The parent's muscles are
+OpenSim
 `Schutte1993Muscle_Deprecated`, whose pennation model is constant width (OpenSim `calcPennation`:
 sin a = l_opt sin a0 / l_f, so the fibres' perpendicular distance w = l_opt sin a0 stays fixed). With the tendon rigid
 at its slack length l_ts the fibres take the rest, l_f cos a = L_MT - l_ts, hence
@@ -19,7 +20,7 @@ curve reaches F0 at about 3.3 % strain.
 
 For comparison the parent's own excursion over 0-120 deg (coupled: total derivative) is -integral of its shoulder_elv
 moment arm (moment_arms_mobl_arms_parent.csv, 10 deg grid, trapezoid): the parent's L_MT is not in the data, its
-excursion is. `python -m shoulder_bench.tendons` prints the table (docs/tendons.md).
+excursion is. `python -m shoulder_bench.authoring.tendons` prints the table (docs/tendons.md).
 """
 from __future__ import annotations
 
@@ -31,8 +32,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from shoulder_bench.kinematics import ShoulderPoser
-from shoulder_bench.mobl_data import MUSCLES, REFERENCE_DIR
+from shoulder_bench.authoring.kinematics import ShoulderPoser
+from shoulder_bench.authoring.mobl_data import MUSCLES, REFERENCE_DIR
 from shoulder_bench.model import MODELS_DIR
 
 PARENT_FILE = REFERENCE_DIR / "mobl_arms_parent_muscles.csv"
@@ -101,7 +102,7 @@ def tendon_lengths(model: mujoco.MjModel, tendons, plane_deg: float, elevations_
 
 def parent_excursion_mm(tables, muscle: str, plane: int, girdle: str, elevations=range(0, 121, 10)) -> np.ndarray:
     """L(q) - L(0) of the parent (mm) from its shoulder_elv moment arms (r = -dL/dq), trapezoid on the grid;
-    `tables`: a `shoulder_bench.references.ReferenceTables`."""
+    `tables`: a `shoulder_bench.authoring.references.ReferenceTables`."""
     r = tables.raw_curve("mobl_arms", muscle, "shoulder_elv", plane, girdle, list(elevations))
     dq = np.radians(np.diff(np.asarray(list(elevations), dtype=float)))
     return np.concatenate([[0.0], -np.cumsum(0.5 * (r[1:] + r[:-1]) * dq)])
@@ -112,7 +113,7 @@ def analyse(model: mujoco.MjModel | None = None, step_deg: float = 1.0, with_par
     model = model or load_model()
     parent, myo = load_parent(), load_myoarm()
     if with_parent_excursion:
-        from shoulder_bench.references import ReferenceTables
+        from shoulder_bench.authoring.references import ReferenceTables
         tables = ReferenceTables.load()
     tendons = list(MUSCLES)
     elev = np.unique(np.round(np.concatenate([np.arange(0, WIDE_RANGE[1] + 1e-9, step_deg), -np.arange(
