@@ -46,15 +46,6 @@ def paper_errors(task: str, algo: str | None) -> tuple[float, float] | None:
     return next(((p["test_mae"], p["test_rmse"]) for p in PAPER if p["task"] == task), None)
 
 
-def add_parser(sub) -> None:
-    p = sub.add_parser("leaderboard", help="compare runs (or the pretrained agents), the reference and the paper")
-    p.add_argument("--runs", type=Path, default=None, help="a folder of runs (runs/<task>/<algo>/<seed>)")
-    p.add_argument("--pretrained", action="store_true", help="add the shipped agents' rows next to the runs'")
-    p.add_argument("--out", type=Path, default=Path("leaderboard"),
-                   help="folder for leaderboard.md, .csv and .html (created; must not be a file)")
-    p.set_defaults(func=_run)
-
-
 def _mean_std(values) -> tuple[float, float]:
     v = np.array([x for x in values if x is not None], dtype=float)
     return (float(v.mean()), float(v.std())) if v.size else (float("nan"), float("nan"))
@@ -354,11 +345,3 @@ def write(rows: list[dict], out: Path) -> dict[str, Path]:
     return paths
 
 
-def _run(args) -> int:
-    from shoulder_bench.eval.plots import checked_dir
-
-    checked_dir(args.out, "--out")  # before the minutes of evaluation
-    paths = write(collect(args.runs, args.pretrained, progress=True), args.out)
-    print(paths["md"].read_text())
-    print("\n".join(str(p) for p in paths.values()))
-    return 0

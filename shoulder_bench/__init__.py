@@ -19,7 +19,7 @@ _register_gym()
 
 
 def make_vec(name: str, num_envs: int, device: str = "cpu", seed=None, **options):
-    """N copies of a task in lockstep as an rsl-rl VecEnv (see shoulder_bench.vec_env)."""
-    from shoulder_bench.vec_env import VecEnv
+    """N copies of a task in lockstep as an rsl-rl VecEnv (see shoulder_bench.tasks.vec_env)."""
+    from shoulder_bench.tasks.vec_env import VecEnv
 
     return VecEnv(name, num_envs, device=device, seed=seed, **options)

@@ -20,7 +20,7 @@ from gymnasium.vector.utils import batch_space
 from shoulder_bench.tasks import TASKS, check_name
 from shoulder_bench.tasks import options as opt
 from shoulder_bench.tasks.gym_env import action_space, in_space, observation_space
-from shoulder_bench.vec_env import VecEnv
+from shoulder_bench.tasks.vec_env import VecEnv
 
 
 class ShoulderVectorEnv(VectorEnv):

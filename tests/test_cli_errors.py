@@ -23,8 +23,8 @@ def no_work(monkeypatch):
         raise AssertionError("work started before the inputs were checked")
 
     for target in ("shoulder_bench.eval.evaluate.evaluate", "shoulder_bench.eval.leaderboard.evaluate",
-                   "shoulder_bench.render._controller", "shoulder_bench.bench.batched_rate",
-                   "shoulder_bench.cli_train.train"):
+                   "shoulder_bench.eval.render._controller", "shoulder_bench.eval.bench.batched_rate",
+                   "shoulder_bench.eval.experiment.train"):
         monkeypatch.setattr(target, forbidden)
 
 
@@ -71,7 +71,7 @@ def test_bench_rejects_fewer_than_one_repeat(capsys, no_work, repeats):
 
 
 def test_bench_functions_reject_empty_batches():
-    from shoulder_bench.bench import bare_rate
+    from shoulder_bench.eval.bench import bare_rate
 
     with pytest.raises(ValueError, match="num_envs 0: give a whole number of at least 1"):
         bare_rate(0, 5)

@@ -5,8 +5,9 @@ import imageio
 import numpy as np
 import pytest
 
-from shoulder_bench import render
-from shoulder_bench.render import render_video
+from shoulder_bench.cli import render as render_cli
+from shoulder_bench.eval import render, render_model
+from shoulder_bench.eval.render import render_video
 
 W, H = 160, 120
 
@@ -53,7 +54,7 @@ def test_gif_from_the_command_line_with_a_policy(tmp_path):
 
     pt = save_policy(Still(), tmp_path / "still.pt", {"task": "abduction_ssp", "algo": "still"})
     parser = argparse.ArgumentParser()
-    render.add_parser(parser.add_subparsers())
+    render_cli.add_parser(parser.add_subparsers())
     args = parser.parse_args(["render", "--policy", str(pt), "--out", str(tmp_path / "clip.mp4"), "--gif",
                               "--seconds", "1", "--width", str(W), "--height", str(H), "--fps", "10"])
     assert args.func(args) == 0
@@ -108,9 +109,9 @@ def test_render_model_poses_arm_girdle_and_ghost_as_the_task_model():
 
     from shoulder_bench import arm
 
-    m = render.build_render_model(W, H)
+    m = render_model.build_render_model(W, H)
     assert m.nu == 0 and {m.camera(k).name for k in range(m.ncam)} >= set(render.CAMERAS)
-    d, poser, task = mujoco.MjData(m), render._Poser(m), arm.LockedPath()
+    d, poser, task = mujoco.MjData(m), render_model.Poser(m), arm.LockedPath()
     for elevation, target in ((0, 150), (90, 30), (150, 90)):
         poser.pose(d, np.radians(elevation), np.radians(target))
         sim = task.pose(np.radians(elevation))
@@ -121,10 +122,10 @@ def test_render_model_poses_arm_girdle_and_ghost_as_the_task_model():
         np.testing.assert_allclose(d.ten_length, sim.ten_length, atol=1e-12)
         at = task.pose(np.radians(target))
         hum = task.m.body("humerus").id
-        np.testing.assert_allclose(d.xpos[m.body(render.GHOST).id], at.xpos[hum], atol=1e-12)
-        np.testing.assert_allclose(d.xquat[m.body(render.GHOST).id], at.xquat[hum], atol=1e-12)
+        np.testing.assert_allclose(d.xpos[m.body(render_model.GHOST).id], at.xpos[hum], atol=1e-12)
+        np.testing.assert_allclose(d.xquat[m.body(render_model.GHOST).id], at.xquat[hum], atol=1e-12)
     ghost = m.geom("ghost_humerus")
-    np.testing.assert_allclose(ghost.size, render.GHOST_SCALE * m.geom("humerus").size)
+    np.testing.assert_allclose(ghost.size, render_model.GHOST_SCALE * m.geom("humerus").size)
     assert ghost.group == m.geom("humerus").group and ghost.rgba[3] < 0.5
 
 
@@ -142,7 +143,7 @@ def test_muscles_coloured_by_their_activation_ld_bundles_by_ld(tmp_path, monkeyp
     monkeypatch.setattr(mujoco.Renderer, "update_scene", spy)
     render_video(tmp_path / "x.mp4", task=task, seconds=0.5, width=W, height=H, fps=10)
     rgba = seen[-1]
-    idle = [t for t, c in rgba.items() if np.allclose(c, render.IDLE, atol=1e-6)]
+    idle = [t for t, c in rgba.items() if np.allclose(c, render_model.IDLE, atol=1e-6)]
     if task == "abduction_4m":
         assert idle == [] and np.array_equal(rgba["ld1"], rgba["ld2"]) and np.array_equal(rgba["ld1"], rgba["ld3"])
     else:

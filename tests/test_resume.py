@@ -12,7 +12,7 @@ import pytest
 import torch
 
 from shoulder_bench.cli import main
-from shoulder_bench.cli_train import train
+from shoulder_bench.eval.experiment import train
 from shoulder_bench.eval.plots import scalars
 from shoulder_bench.train.run import FolderLock
 

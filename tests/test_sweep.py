@@ -9,7 +9,7 @@ import time
 import pytest
 
 from shoulder_bench.cli import main
-from shoulder_bench.sweep import grid, read_configs, sweep
+from shoulder_bench.eval.sweep import grid, read_configs, sweep
 
 PPO = {"num_envs": 16, "steps_per_env": 8, "checkpoint_every": 1}
 

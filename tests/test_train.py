@@ -11,7 +11,7 @@ import pytest
 import torch
 
 from shoulder_bench.cli import main
-from shoulder_bench.cli_train import train
+from shoulder_bench.eval.experiment import train
 from shoulder_bench.train.policy import load_policy
 
 TINY = {"num_envs": 16, "steps_per_env": 8, "checkpoint_every": 1}

@@ -139,7 +139,7 @@ def test_start_of_abduction_targets_are_judged_girdle_fixed_and_show_coupled():
     fixed = {"ssp": np.full_like(x, 20.0), "dmi": 30.0 - 0.0025 * (x - 80.0) ** 2}  # 14 mm at 0, peak 30 at 80 deg
     coupled = {"ssp": np.full_like(x, 5.0), "dmi": 10.0 + 0.15 * x}  # 10 mm at 0 (above ssp), peak 28 mm at 120 deg
     curves = {"fixed": fixed, "coupled": coupled}
-    rows = validate._early_targets(lambda m, g: (curves[g][m], f"note {g}"), "missing", "coronal")
+    rows = validate.early_targets(lambda m, g: (curves[g][m], f"note {g}"), "missing", "coronal")
     assert [t["id"] for t in rows] == list(validate.EARLY_IDS)
     assert validate.EARLY_GIRDLE == "fixed"
     for t in rows:
@@ -153,7 +153,7 @@ def test_start_of_abduction_targets_are_judged_girdle_fixed_and_show_coupled():
     assert by_id["early/dmi_peak"]["coupled"]["measured"] == "28.0 mm"
     assert by_id["early/ssp_above_dmi"]["coupled"]["measured"].startswith("ssp - dmi -")
     # what the model cannot pose fails, with the reason
-    rows = validate._early_targets(lambda m, g: (None, "missing"), "missing", "coronal")
+    rows = validate.early_targets(lambda m, g: (None, "missing"), "missing", "coronal")
     assert not any(t["passed"] for t in rows) and all(t["note"] == "missing" for t in rows)
 
 

@@ -16,7 +16,6 @@ it lacks) fails with the reason, so a model that lacks it is never reported as m
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -234,7 +233,7 @@ def moment_arm_section(view: ModelView, refs: references.ReferenceTables, arms: 
     return {"elevation_deg": ELEVATIONS.tolist(), "model_mm": model, "references_mm": curves, "rmse": rows}
 
 
-def _moment_arm_targets(view, refs, arms, cond) -> list[dict]:
+def moment_arm_targets(view, refs, arms, cond) -> list[dict]:
     """The envelope and RMSE targets of each muscle's elevation moment arm (girdle coupled, the tasks' plane)."""
     tp, out = view.task_plane, []
     for m in anatomy.MUSCLES:
@@ -274,7 +273,7 @@ def _early_values(ssp, dmi) -> tuple[tuple, tuple]:
     return passed, measured
 
 
-def _early_targets(curve_of, missing: str, plane_text: str) -> list[dict]:
+def early_targets(curve_of, missing: str, plane_text: str) -> list[dict]:
     """The four start-of-abduction targets (the cadaver and review literature, as the issue quantifies it) on the
     model's own 1-deg elevation moment arms in the tasks' plane, rotation 0, judged with the girdle EARLY_GIRDLE
     (fixed: elevation = the glenohumeral angle from the resting scapula; docs/validation.md, "The start-of-abduction
@@ -352,7 +351,7 @@ def _force_targets(view, refs, law, cond) -> tuple[list[dict], dict]:
     return out, q
 
 
-def _sign_targets(view, refs, curve_of) -> list[dict]:
+def sign_targets(view, refs, curve_of) -> list[dict]:
     """The rotation and plane-of-elevation sign targets in view.task_plane; curve_of(muscle, coordinate) gives the
     model's coupled-girdle curve on ELEVATIONS (or None) and its note."""
     out = []
@@ -392,10 +391,10 @@ def evaluate(muscle_model: str = DEFAULT_MUSCLE_MODEL, path: Path | str = DEFAUL
     law = ForceLaw.load(muscle_model)
     cond = f"{PLANE_NAMES.get(view.task_plane, view.task_plane)} plane, rotation 0, girdle coupled, 0-120 deg"
     forces, quantities = _force_targets(view, refs, law, cond)
-    signs = _sign_targets(view, refs, lambda m, c: model_curve(view, arms, m, c, view.task_plane, "coupled"))
-    early = _early_targets(lambda m, g: model_curve(view, fine, m, "shoulder_elv", view.task_plane, g), view.missing,
+    signs = sign_targets(view, refs, lambda m, c: model_curve(view, arms, m, c, view.task_plane, "coupled"))
+    early = early_targets(lambda m, g: model_curve(view, fine, m, "shoulder_elv", view.task_plane, g), view.missing,
                            PLANE_NAMES.get(view.task_plane, view.task_plane))
-    targets = _moment_arm_targets(view, refs, arms, cond) + early + forces + signs
+    targets = moment_arm_targets(view, refs, arms, cond) + early + forces + signs
     return {
         "model": {"path": _shown(path), "version": anatomy.MODEL_VERSION, "muscle_model": muscle_model,
                   "description": view.describe(), "girdle": view.girdle, "task_plane_deg": view.task_plane,
@@ -411,41 +410,3 @@ def evaluate(muscle_model: str = DEFAULT_MUSCLE_MODEL, path: Path | str = DEFAUL
     }
 
 
-def _run(args) -> int:
-    from shoulder_bench.authoring.fem import output_folder
-
-    out = output_folder(args.out, "--out")
-    if not Path(args.model).is_file():
-        raise FileNotFoundError(f"--model {args.model}: no such file; give an MJCF (models/shoulder_v2.xml, the "
-                                "default, or models/shoulder.xml)")
-    from shoulder_bench.authoring.validate_report import print_report, write_figures
-
-    report = evaluate(args.muscle_model, args.model)
-    report["figures"] = [str(p) for p in write_figures(report, out)]
-    if args.json:
-        print(json.dumps(report, indent=1, allow_nan=False))
-    else:
-        print_report(report)
-    return 0 if report["passed"] else 1
-
-
-def add_parser(subparsers):
-    from shoulder_bench.muscle import MUSCLE_MODELS
-
-    p = subparsers.add_parser("model", help="check the shoulder model")
-    sub = p.add_subparsers(dest="model_command", required=True, metavar="SUBCOMMAND")
-    v = sub.add_parser("validate", help="moment arms against the MoBL-ARMS, MyoArm and OpenSim references, rest "
-                       "posture, passive and peak torques; overlay figures; exit status 1 when a target is missed")
-    v.add_argument("--model", type=Path, default=DEFAULT_MODEL, metavar="PATH",
-                   help="the MJCF to validate: v2 (default, models/shoulder_v2.xml, the geometry of the tasks' locked "
-                   "variant; force targets by a static estimate, the tasks' tables shown beside) or v1 "
-                   "(models/shoulder.xml, kept for comparison)")
-    v.add_argument("--json", action="store_true", help="print one JSON object instead of the tables")
-    v.add_argument("--out", type=Path, default=DEFAULT_OUT, help="folder for the figures validate_<muscle>.png "
-                   "(v2: validate_v2_<muscle>.png; default: %(default)s, under the current folder, as the other "
-                   "commands' runs/...; created if missing)")
-    v.add_argument("--muscle-model", choices=MUSCLE_MODELS, default=DEFAULT_MUSCLE_MODEL,
-                   help="muscle tables for the force quantities (v1: its tables; v2: the tasks' tables shown beside "
-                   "the static estimate; default: %(default)s)")
-    v.set_defaults(func=_run)
-    return p

@@ -111,9 +111,9 @@ def _plane_targets(refs, grid: dict, fine: dict, plane: int, cond: str, plane_te
     start-of-abduction targets on the 1-deg curves, girdle fixed, the coupled values beside them)."""
     view = V.ModelView(("shoulder_elv",), (plane,), "coupled", plane, "", version="2")
     arms = {m: grid[(m, "shoulder_elv", plane, "coupled")] for m in anatomy.MUSCLES}
-    signs = V._sign_targets(view, refs, lambda m, c: (grid[(m, c, plane, "coupled")], ""))
-    early = V._early_targets(lambda m, g: (fine[(m, "shoulder_elv", plane, g)], ""), "", plane_text)
-    return V._moment_arm_targets(view, refs, arms, cond) + early, signs
+    signs = V.sign_targets(view, refs, lambda m, c: (grid[(m, c, plane, "coupled")], ""))
+    early = V.early_targets(lambda m, g: (fine[(m, "shoulder_elv", plane, g)], ""), "", plane_text)
+    return V.moment_arm_targets(view, refs, arms, cond) + early, signs
 
 
 def combine(per_plane: dict[int, list[dict]], task_plane: int | None) -> list[dict]:

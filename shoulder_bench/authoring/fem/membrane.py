@@ -93,7 +93,7 @@ def _shape_gradients(mem: Membrane) -> np.ndarray:
     return np.einsum("ak,tkl->tal", base, mem.dm_inv)
 
 
-def _kinematics(mem: Membrane, x: np.ndarray):
+def membrane_kinematics(mem: Membrane, x: np.ndarray):
     b = _shape_gradients(mem)
     f = np.einsum("tai,tak->tik", x[mem.triangles], b)  # (T, 3, 2)
     f1, f2 = f[:, :, 0], f[:, :, 1]
@@ -102,7 +102,7 @@ def _kinematics(mem: Membrane, x: np.ndarray):
 
 
 def membrane_energy(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float) -> float:
-    _, _, _, c = _kinematics(mem, x)
+    _, _, _, c = membrane_kinematics(mem, x)
     return float(np.sum(mem.area * mem.thickness * kernel.energy(c, activation)))
 
 
@@ -116,7 +116,7 @@ def _element_gradient(b, f1, f2, dw, vol):
 
 def membrane_forces(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float) -> np.ndarray:
     """Gradient of the membrane energy w.r.t. node positions, (N, 3) (minus the internal nodal forces)."""
-    b, f1, f2, c = _kinematics(mem, x)
+    b, f1, f2, c = membrane_kinematics(mem, x)
     _, dw, _ = kernel.derivatives(c, activation, second=False)
     _, ge = _element_gradient(b, f1, f2, dw, mem.area * mem.thickness)
     g = np.zeros((mem.n_nodes, 3))
@@ -130,7 +130,7 @@ def _dofs(mem: Membrane) -> np.ndarray:
 
 def membrane_tangent(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float):
     """(energy, gradient (3N,), sparse Hessian (3N x 3N) CSR)."""
-    b, f1, f2, c = _kinematics(mem, x)
+    b, f1, f2, c = membrane_kinematics(mem, x)
     w, dw, d2w = kernel.derivatives(c, activation)
     vol = mem.area * mem.thickness
     dc, ge = _element_gradient(b, f1, f2, dw, vol)

@@ -30,7 +30,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from shoulder_bench.authoring.fem.material import Blemker, Material
-from shoulder_bench.authoring.fem.membrane import _kinematics, membrane_forces
+from shoulder_bench.authoring.fem.membrane import membrane_forces, membrane_kinematics
 from shoulder_bench.authoring.fem.shells import grid_triangles
 from shoulder_bench.authoring.fem.solver import MuscleProblem, NoConvergence, SolverSettings
 
@@ -119,7 +119,7 @@ class SheetProblem(MuscleProblem):
 
     def fibre_stretch(self, x: np.ndarray) -> tuple[float, float, float]:
         """(min, area-weighted mean, max) of the element fibre stretch sqrt(C11)."""
-        lam = np.sqrt(_kinematics(self.mem, x)[3][:, 0])
+        lam = np.sqrt(membrane_kinematics(self.mem, x)[3][:, 0])
         return float(lam.min()), float(np.sum(lam * self.mem.area) / self.mem.area.sum()), float(lam.max())
 
     def sweep_extents(self, extents: np.ndarray, activation: float, callback=None, neighbour=None) -> dict:

@@ -1,4 +1,5 @@
-"""`shoulder-bench` command line: one subcommand per job; each module registers its own with `add_parser`."""
+"""`shoulder-bench` command line: one subcommand (group) per module of this package, each registered by its
+`add_parser`; the work itself lives in the layers below (tasks, train, eval, authoring)."""
 from __future__ import annotations
 
 import argparse
@@ -9,9 +10,10 @@ import sys
 import threading
 
 # modules that provide add_parser(subparsers); a missing optional one is skipped
-COMMANDS = ["shoulder_bench.cli_tasks", "shoulder_bench.bench", "shoulder_bench.cli_train", "shoulder_bench.reproduce",
-            "shoulder_bench.sweep", "shoulder_bench.eval.plots", "shoulder_bench.eval.leaderboard",
-            "shoulder_bench.render", "shoulder_bench.authoring.fem.cli", "shoulder_bench.authoring.validate"]
+COMMANDS = ["shoulder_bench.cli.tasks", "shoulder_bench.cli.bench", "shoulder_bench.cli.train",
+            "shoulder_bench.cli.reproduce", "shoulder_bench.cli.sweep", "shoulder_bench.cli.plots",
+            "shoulder_bench.cli.leaderboard", "shoulder_bench.cli.render", "shoulder_bench.cli.fem",
+            "shoulder_bench.cli.validate"]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -51,6 +53,3 @@ def main(argv: list[str] | None = None) -> int:
         if in_main:
             signal.signal(signal.SIGTERM, previous)
 
-
-if __name__ == "__main__":
-    sys.exit(main())

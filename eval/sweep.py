@@ -45,7 +45,7 @@ class Job:
 
     def plan(self) -> dict:
         """The run's config.json as `shoulder-bench train` will write it (checks every value)."""
-        from shoulder_bench.cli_train import plan
+        from shoulder_bench.train.plan import plan
 
         overrides = json.loads(self.config) if self.config is not None else {}
         return plan(self.task, self.algo, self.frames, self.seed, overrides, source=f"--config {self.algo}")[2]
@@ -61,29 +61,12 @@ class Job:
         return cmd
 
 
-def add_parser(sub) -> None:
-    p = sub.add_parser("sweep", help="train a grid of tasks x algorithms x seeds (local pool, or Ray with --ray)")
-    p.add_argument("--tasks", nargs="+", required=True)
-    p.add_argument("--algos", nargs="+", required=True, help="ppo, dqn, bdq; pairs that do not fit a task are skipped")
-    p.add_argument("--seeds", nargs="+", type=int, default=[0])
-    p.add_argument("--frames", type=int, default=None, help="budget per run (default: each algorithm's default)")
-    p.add_argument("--eval-every", type=int, default=100_000, help="frames between test-set evaluations")
-    p.add_argument("--config", action="append", default=[], metavar="ALGO=FILE",
-                   help="JSON config overrides for one algorithm (repeatable), as for `train --config`")
-    p.add_argument("--out", type=Path, default=Path("runs/sweep"))
-    p.add_argument("--workers", type=int, default=None,
-                   help="runs at once on the local pool (default: one per two cores; each run steps on 2 threads)")
-    p.add_argument("--ray", default=None, metavar="ADDRESS", help="run on Ray: local, auto or ray://HOST:PORT")
-    p.add_argument("--cpus-per-run", type=float, default=2.0, help="Ray CPUs reserved per run")
-    p.set_defaults(func=_run)
-
-
 def grid(tasks, algos, seeds, frames: int | None = None, eval_every: int = 100_000,
          configs: dict[str, str] | None = None) -> tuple[list[Job], list[str]]:
     """(jobs, skipped pairs): every fitting task x algo pair with every seed; every run's definition is checked
-    (`cli_train.plan`) before any starts."""
-    from shoulder_bench.cli_train import ALGOS, DEFAULT_FRAMES, check_task
+    (`train.plan.plan`) before any starts."""
     from shoulder_bench.tasks import check_name
+    from shoulder_bench.train.plan import ALGOS, DEFAULT_FRAMES, check_task
 
     configs = configs or {}
     tasks = [check_name(t) for t in tasks]  # unknown names: KeyError listing the tasks
@@ -118,8 +101,8 @@ def grid(tasks, algos, seeds, frames: int | None = None, eval_every: int = 100_0
 
 def read_configs(items: list[str]) -> dict[str, str]:
     """{algo: JSON text} from ALGO=FILE items; the field names are checked now, the values by `grid`."""
-    from shoulder_bench.cli_train import ALGOS, algo_module
     from shoulder_bench.train.config import read_overrides
+    from shoulder_bench.train.plan import ALGOS, algo_module
 
     out = {}
     for item in items:
@@ -132,7 +115,7 @@ def read_configs(items: list[str]) -> dict[str, str]:
 
 
 def is_finished(job: Job, root: Path) -> bool:
-    from shoulder_bench.cli_train import finished_metrics
+    from shoulder_bench.train.plan import finished_metrics
 
     return finished_metrics(root / job.name, job.plan()) is not None
 
@@ -335,20 +318,3 @@ def report(records: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def _run(args) -> int:
-    jobs, skipped = grid(args.tasks, args.algos, args.seeds, args.frames, args.eval_every,
-                         read_configs(args.config))
-    for pair in skipped:
-        print(f"skipping {pair}: the algorithm does not fit the task")
-    try:
-        records = sweep(jobs, args.out, args.workers, args.ray, args.cpus_per_run)
-    except KeyboardInterrupt:
-        print(f"sweep interrupted; summary in {args.out / SUMMARY}. Run the same command again to continue: "
-              f"finished runs are skipped, interrupted ones resume from their checkpoints", file=sys.stderr)
-        return 130
-    print(report(records))
-    failed = sum(r["status"] == "failed" for r in records)
-    print(f"\n{len(records) - failed} of {len(records)} runs finished; summary in {args.out / SUMMARY}"
-          + (f"; {failed} FAILED (logs above)" if failed else "")
-          + (f"\nnext: shoulder-bench leaderboard --runs {args.out}" if failed < len(records) else ""))
-    return 1 if failed else 0

@@ -29,9 +29,10 @@ def _tasks(args) -> int:
 
 def _demo(args) -> int:
     """train -> evaluate -> leaderboard -> video, each step with a progress bar; everything lands in --out."""
-    from shoulder_bench.cli_train import check_task, train
     from shoulder_bench.eval import leaderboard
-    from shoulder_bench.render import render_video
+    from shoulder_bench.eval.experiment import train
+    from shoulder_bench.eval.render import render_video
+    from shoulder_bench.train.plan import check_task
 
     check_task(args.task, "ppo")  # before any work: the demo trains PPO
     if args.frames <= 0 or not args.seconds > 0:

@@ -23,49 +23,11 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco's GL context
 
+from shoulder_bench.eval.render_model import IDLE, PALE, SATURATED, Poser, build_render_model  # noqa: E402
+
 CAMERAS = ("front", "back")
 DEFAULT_FPS = {"mp4": 30, "gif": 20}  # GIF frame delays are whole centiseconds: 20 fps = 5 cs, exact real time
 MAX_SIZE = 1920
-PALE = np.array([0.93, 0.80, 0.78, 0.85])  # muscle at activation 0
-SATURATED = np.array([0.90, 0.02, 0.02, 1.0])  # muscle at activation 1
-IDLE = np.array([0.60, 0.60, 0.60, 0.35])  # a muscle the task does not simulate
-GHOST_RGBA = (0.55, 0.85, 1.0, 0.22)
-GHOST_SCALE = 1.03  # slightly larger than the bone: no z-fighting where ghost and arm coincide
-GHOST = "ghost"  # the ghost's mocap body
-
-
-def add_parser(sub) -> None:
-    p = sub.add_parser("render", help="render a headless video of one episode (mp4, or --gif)",
-                       description="Render one episode: bones as meshes, muscles coloured by activation, a "
-                                   "translucent ghost arm at the target angle and an overlay with time, angle and "
-                                   "target. Without --policy the PD feedback controller drives the arm.")
-    p.add_argument("--task", default=None,
-                   help="task name (default: the policy's task, else abduction_4m); see `shoulder-bench tasks`")
-    p.add_argument("--policy", default=None,
-                   help="policy.pt, a run folder, pretrained:NAME, or reference (the model-based controller); "
-                        "default: the PD feedback controller")
-    p.add_argument("--trajectory", type=Path, default=None,
-                   help="CSV target (time_s,angle_deg[,trajectory]; the first trajectory is used); default: a "
-                        "random test-split target drawn with --seed")
-    p.add_argument("--out", type=Path, required=True, help="output file (.mp4; .gif with --gif)")
-    p.add_argument("--seconds", type=float, default=None, help="length of the video (default: the whole target)")
-    p.add_argument("--width", type=int, default=640)
-    p.add_argument("--height", type=int, default=480)
-    p.add_argument("--fps", type=int, default=None, help="frames per second (default 30 for mp4, 20 for GIF)")
-    p.add_argument("--gif", action="store_true", help="write an animated GIF instead of an mp4")
-    p.add_argument("--camera", choices=CAMERAS, default="front")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random target")
-    p.set_defaults(func=_render_cmd)
-
-
-def _render_cmd(args) -> int:
-    info = render_video(args.out, task=args.task, policy=args.policy, trajectory=args.trajectory,
-                        seconds=args.seconds, width=args.width, height=args.height, gif=args.gif, fps=args.fps,
-                        camera=args.camera, seed=args.seed, progress=True)
-    print(f"wrote {info['path']}: {info['frames']} frames, {info['width']}x{info['height']} at {info['fps']} fps "
-          f"({info['seconds']:.1f} s of {info['task']} with {info['controller']}; MAE {info['mae_deg']:.2f} deg"
-          f"{', CRASHED' if info['crashed'] else ''}); {info['render_fps']:.0f} frames rendered per wall second")
-    return 0
 
 
 # --- inputs -------------------------------------------------------------------------------------------------------
@@ -146,59 +108,6 @@ def _controller(policy: str | None, task: str | None) -> tuple[_Controller, str]
         return np.asarray(a.detach().cpu().numpy() if hasattr(a, "detach") else a)
 
     return _Controller(label, act, meta.get("muscle_model")), task
-
-
-# --- the render model ---------------------------------------------------------------------------------------------
-def build_render_model(width: int, height: int):
-    """The task model (`arm.MODEL_FILE`, scene included) without actuators, plus a translucent ghost humerus: a mocap
-    body `GHOST` with a copy of the humerus's geoms, `GHOST_SCALE` larger (`_Poser` places it)."""
-    import mujoco
-
-    from shoulder_bench import arm
-
-    spec = mujoco.MjSpec.from_file(str(arm.MODEL_FILE))
-    for act in list(spec.actuators):  # visual only: no user actuators, so the muscle callback never runs
-        spec.delete(act)
-    spec.visual.global_.offwidth = max(width, spec.visual.global_.offwidth)
-    spec.visual.global_.offheight = max(height, spec.visual.global_.offheight)
-    bare = spec.compile()  # the humerus's geoms as compiled (a fromto capsule becomes pos, quat, size)
-    hum = bare.body("humerus").id
-    ghost = spec.worldbody.add_body(name=GHOST, mocap=True)
-    for g in np.flatnonzero((bare.geom_bodyid == hum) & (bare.geom_group == 1)):  # the bone, not the wrap geoms
-        size = bare.geom_size[g].copy()
-        if bare.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
-            raise ValueError("render: a mesh humerus needs a scaled copy of its mesh for the ghost")
-        ghost.add_geom(name=f"ghost_{bare.geom(g).name}", type=bare.geom_type[g], size=GHOST_SCALE * size,
-                       pos=bare.geom_pos[g], quat=bare.geom_quat[g], rgba=GHOST_RGBA, contype=0, conaffinity=0,
-                       group=1)
-    model = spec.compile()
-    model.tendon_width[:] = np.maximum(model.tendon_width, 0.006)  # visible at README sizes
-    # software rendering (EGL on CPU): shadow maps cost ~4x the frame and the floor is far below the view anyway
-    model.light_castshadow[:] = 0
-    model.mat_reflectance[:] = 0
-    return model
-
-
-class _Poser:
-    """Poses the render model: the arm at an elevation (the girdle on its coupling), the ghost at another."""
-
-    def __init__(self, model):
-        from shoulder_bench import arm
-
-        self.model, self.path = model, arm.LockedPath(model=model)  # the render model's own coupled kinematics
-        self.hum = model.body("humerus").id
-        self.mocap = int(model.body_mocapid[model.body(GHOST).id])
-
-    def pose(self, data, elevation_rad: float, target_rad: float) -> None:
-        """Set `data` (the render model's) to the arm at `elevation_rad` and the ghost at `target_rad`; then
-        mj_forward."""
-        import mujoco
-
-        g = self.path.pose(target_rad)  # the humerus where it is at the target elevation (girdle included)
-        data.mocap_pos[self.mocap] = g.xpos[self.hum]
-        data.mocap_quat[self.mocap] = g.xquat[self.hum]
-        data.qpos[:] = self.path.qpos(elevation_rad)[0]
-        mujoco.mj_forward(self.model, data)
 
 
 def _colour_scale(peak: float) -> float:
@@ -370,7 +279,7 @@ def render_video(out: Path | str, task: str | None = None, policy: str | None = 
 
     model = build_render_model(width, height)
     data = mujoco.MjData(model)
-    poser = _Poser(model)
+    poser = Poser(model)
     # each muscle's tendons (ld: ld1-ld3) and, per tendon, which of the task's activations colours it
     tendons = [(model.tendon(t).id, k) for k, m in enumerate(muscles) for t in arm.ACTUATORS[m]]
     ten_ids, ten_src = [t for t, _ in tendons], [k for _, k in tendons]

@@ -21,17 +21,6 @@ EXPERIMENTS = {
 TABLE = Path("docs/reproduction.md")
 
 
-def add_parser(sub) -> None:
-    p = sub.add_parser("reproduce", help="the paper's experiments, several seeds each -> table (and pretrained)")
-    p.add_argument("--experiments", nargs="+", default=list(EXPERIMENTS), choices=list(EXPERIMENTS))
-    p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    p.add_argument("--runs", type=Path, default=Path("runs/reproduce"))
-    p.add_argument("--frames-scale", type=float, default=1.0, help="multiply every budget (e.g. 0.01 to smoke-test)")
-    p.add_argument("--table", type=Path, default=TABLE)
-    p.add_argument("--ship", action="store_true", help="copy the best seed of each into the pretrained agents")
-    p.set_defaults(func=run)
-
-
 def check_args(args) -> None:
     """The inputs, checked before any training: a positive finite budget scale, folders and a table file that can
     be written."""
@@ -44,7 +33,7 @@ def check_args(args) -> None:
 
 
 def run(args) -> int:
-    from shoulder_bench.cli_train import train
+    from shoulder_bench.eval.experiment import train
     from shoulder_bench.eval.plots import replace_all
 
     check_args(args)

@@ -21,14 +21,6 @@ from mujoco import rollout
 TASK = "abduction_4m"
 
 
-def add_parser(sub) -> None:
-    p = sub.add_parser("bench", help="throughput and memory, measured side by side")
-    p.add_argument("--quick", action="store_true", help="tiny budget (CI): small batches, few frames")
-    p.add_argument("--json", action="store_true", help="print one JSON object as the last line")
-    p.add_argument("--repeats", type=int, default=3, help="measurements of each, the best kept (at least 1)")
-    p.set_defaults(func=run)
-
-
 def batched_rate(venv, frames: int, gen: torch.Generator) -> float:
     check_counts(frames=frames)
     n = venv.num_envs

@@ -68,7 +68,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    """Stand-alone entry (`python -m shoulder_bench.authoring.fem.cli build ...`), same arguments as `shoulder-bench
+    """Stand-alone entry (`python -m shoulder_bench.cli.fem build ...`), same arguments as `shoulder-bench
     fem`."""
     parser = argparse.ArgumentParser(prog="shoulder-bench")
     add_parser(parser.add_subparsers(dest="command", required=True))

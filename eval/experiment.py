@@ -1,0 +1,80 @@
+"""One benchmark run: train an agent (`shoulder_bench.train`), score it on the fixed test set every `eval_every`
+frames and at the end, and write the run folder (config.json, metrics.json, policy.pt, TensorBoard). It lives in
+eval/ because scoring is evaluation: train/ never imports eval/."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from shoulder_bench.train.plan import ALGOS, algo_module, count, finished_metrics, plan
+
+PAPER_PPO4_MAE = 5.15  # deg: "the paper's accuracy" for frames-to-accuracy (PPO-4, their model)
+
+
+def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: Path | None = None,
+          resume: bool = False, config: Path | None = None, muscle_model: str | None = None,
+          eval_every: int = 100_000) -> dict:
+    """Train, evaluate on the fixed test set, write the run folder; returns metrics.json's content."""
+    import shoulder_bench
+    from shoulder_bench.eval.evaluate import evaluate
+    from shoulder_bench.train.config import read_overrides
+    from shoulder_bench.train.policy import save_policy
+    from shoulder_bench.train.run import Run
+    from shoulder_bench.trajectory import load_test_set
+
+    _, cls = algo_module(algo) if algo in ALGOS else (None, None)
+    overrides = read_overrides(config, cls) if cls is not None else {}
+    module, cfg, run_config = plan(task, algo, frames, seed, overrides, muscle_model,
+                                   source=f"config file {config}" if config else "config")
+    eval_every = count("--eval-every", eval_every)
+    seed, frames, muscle_model = run_config["seed"], run_config["frames"], run_config["muscle_model"]
+    if frames != run_config["frames_asked"]:
+        print(f"budget: {run_config['frames_asked']:,} frames rounded up to {frames:,} "
+              f"({frames // run_config['frames_per_iteration']} iterations of {run_config['frames_per_iteration']:,})")
+    out = Path(out or Path("runs") / task / algo / str(seed))
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} is a file; give a folder for the run")
+    done = finished_metrics(out, run_config) if resume else None
+    if done is not None:  # nothing to do; opening the run again would start a new TensorBoard file
+        return done
+    # the simulator's rollout threads own the cores while stepping; torch's small matrices gain nothing from more
+    # threads and OpenMP threads spinning against them cost 10x (measured: 34 s -> 3 s per PPO iteration)
+    torch.set_num_threads(1)
+    torch.manual_seed(seed)
+    np.random.seed(seed)
+    with Run(out, run_config, resume) as run:
+        venv = shoulder_bench.make_vec(task, cfg.num_envs, seed=seed * 100_000, muscle_model=muscle_model)
+        run.env = venv
+        if run.checkpoint is not None and "env" in run.checkpoint["state"]:
+            venv.load_state_dict(run.checkpoint["state"]["env"])
+        elif run.checkpoint is not None:
+            print(f"warning: {run.dir / 'checkpoint.pt'} predates exact resume (no env state): the episodes restart")
+        test = load_test_set()
+
+        def on_eval(policy) -> None:
+            m = evaluate(policy, task, test, muscle_model=muscle_model)
+            run.writer.add_scalar("test/mae_deg", m["mae_deg"], run.frames)
+            run.writer.add_scalar("test/rmse_deg", m["rmse_deg"], run.frames)
+            run.writer.add_scalar("test/crashes", m["crashes"], run.frames)
+            if run.paper_frames is None and m["mae_deg"] <= PAPER_PPO4_MAE:
+                run.paper_frames = run.frames
+                run.writer.add_scalar("test/wall_s_to_paper_accuracy", run.elapsed(), run.frames)
+
+        def evaluate_every(now: int) -> int:
+            return (now // eval_every + 1) * eval_every
+
+        run.start_progress(frames)
+        try:
+            policy = module.train(run, venv, cfg, frames, evaluate_every, on_eval)
+        finally:
+            venv.close()
+        final = evaluate(policy, task, test, muscle_model=muscle_model)
+        metrics = {k: final[k] for k in ("mae_deg", "rmse_deg", "crashes", "n_trajectories")}
+        metrics["per_trajectory"] = final["per_trajectory"]
+        save_policy(policy, run.dir / "policy.pt",
+                    {"task": task, "algo": algo, "seed": seed, "frames": run.frames, "muscle_model": muscle_model,
+                     "options": run_config["options"], "model_version": run_config["model_version"],
+                     "test": {k: metrics[k] for k in ("mae_deg", "rmse_deg", "crashes")}})
+        return run.finish(metrics)

@@ -1,0 +1,6 @@
+"""`python -m shoulder_bench.cli` = `shoulder-bench`."""
+import sys
+
+from shoulder_bench.cli import main
+
+sys.exit(main())

@@ -1,0 +1,71 @@
+"""`shoulder-bench train` and `shoulder-bench eval`: argument parsing; the run is `eval.experiment.train`."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from shoulder_bench.train.plan import ALGOS, DEFAULT_FRAMES
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("train", help="train an agent; writes runs/<task>/<algo>/<seed>/")
+    p.add_argument("--task", required=True)
+    p.add_argument("--algo", required=True, choices=ALGOS)
+    defaults = ", ".join(f"{a} {n:,}" for a, n in DEFAULT_FRAMES.items())
+    p.add_argument("--frames", type=int, default=None,
+                   help=f"frame budget (a frame = one 0.1 s step of one copy), rounded up to whole iterations; "
+                        f"default: {defaults}")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", type=Path, default=None, help="run folder (default: runs/<task>/<algo>/<seed>)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the run in --out from its last checkpoint (same task, algo, seed, muscle model "
+                        "and config; only --frames may grow)")
+    p.add_argument("--config", type=Path, default=None, help="JSON file overriding the algorithm's config fields")
+    p.add_argument("--muscle-model", default=None, help="fem or hill (default: the package default)")
+    p.add_argument("--eval-every", type=int, default=100_000, help="frames between test-set evaluations")
+    p.set_defaults(func=_train)
+    p = sub.add_parser("eval", help="evaluate a policy on the test set or a trajectory CSV")
+    p.add_argument("--policy", required=True,
+                   help="policy.pt, a run folder, pretrained:NAME, or reference (the model-based controller)")
+    p.add_argument("--task", default=None, help="default: the task the policy was trained on")
+    p.add_argument("--trajectories", default="test", help="test (the fixed 100), combing, or a CSV file")
+    p.add_argument("--json", action="store_true", help="one JSON object on the last line")
+    p.set_defaults(func=_eval)
+
+
+def _train(args) -> int:
+    from shoulder_bench.eval import experiment
+
+    try:
+        m = experiment.train(args.task, args.algo, args.frames, args.seed, args.out, args.resume, args.config,
+                  args.muscle_model, args.eval_every)
+    except KeyboardInterrupt:
+        out = args.out or Path("runs") / args.task / args.algo / str(args.seed)
+        kept = (Path(out) / "checkpoint.pt").exists()
+        print("\ntrain: interrupted; " + (f"continue from the last checkpoint with the same command and --resume "
+                                            f"(run folder {out})" if kept else "no checkpoint yet, nothing kept"),
+              file=sys.stderr)
+        return 130
+    print(f"test set: MAE {m['mae_deg']:.2f} deg, RMSE {m['rmse_deg']:.2f} deg, crashes {m['crashes']}/"
+          f"{m['n_trajectories']}; {m['frames']:,} frames in {m['wall_s']:.0f} s")
+    return 0
+
+
+def _eval(args) -> int:
+    from shoulder_bench.eval.evaluate import evaluate, inference_latency_ms, policy_for, trajectories_for
+    from shoulder_bench.tasks import TASKS
+
+    trajs = trajectories_for(args.trajectories)  # a bad file fails before the policy loads
+    policy, meta, task = policy_for(args.policy, args.task)
+    m = evaluate(policy, task, trajs, muscle_model=meta.get("muscle_model"), options=meta.get("options"))
+    for i, (mae, rmse, crashed) in enumerate(zip(*m["per_trajectory"].values())):
+        print(f"trajectory {i:3d}: MAE {mae:6.2f} deg  RMSE {rmse:6.2f} deg{'  CRASHED' if crashed else ''}")
+    m["latency_ms"] = inference_latency_ms(policy, 4 + len(TASKS[task][0]))
+    print(f"overall on {m['n_trajectories']} trajectories ({args.trajectories}): MAE {m['mae_deg']:.2f} deg, "
+          f"RMSE {m['rmse_deg']:.2f} deg, crashes {m['crashes']}; inference {m['latency_ms']:.3f} ms per step "
+          f"(batch 1, CPU)")
+    if args.json:
+        print(json.dumps({k: v for k, v in m.items() if k != "per_trajectory"} | {"task": task,
+                                                                                  "policy": args.policy}))
+    return 0

@@ -1,0 +1,95 @@
+"""What defines a training run, checked before any work: the algorithm, the task it fits, the frame budget, the
+config; and whether a run folder already holds that run, finished."""
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+
+ALGOS = ("ppo", "dqn", "bdq")
+DEFAULT_FRAMES = {"ppo": 1_600_000, "dqn": 200_000, "bdq": 500_000}
+
+
+def algo_module(algo: str):
+    """(the algorithm's module, its config class)."""
+    if algo == "ppo":
+        from shoulder_bench.train import ppo
+
+        return ppo, ppo.PPOConfig
+    from shoulder_bench.train import dqn
+
+    return dqn, dqn.DQNConfig
+
+
+def check_task(task: str, algo: str) -> None:
+    """ValueError unless `algo` can learn `task` (PPO: continuous; DQN: discrete, one muscle; BDQ: discrete)."""
+    from shoulder_bench.tasks import TASKS, check_name
+
+    muscles, discrete, _ = TASKS[check_name(task)]
+    want = {"ppo": "a continuous task", "dqn": "a discrete single-muscle task", "bdq": "a discrete task"}[algo]
+    ok = {"ppo": not discrete, "dqn": discrete and len(muscles) == 1, "bdq": discrete}[algo]
+    if not ok:
+        valid = [n for n, (m, d, _) in TASKS.items() if {"ppo": not d, "dqn": d and len(m) == 1, "bdq": d}[algo]]
+        raise ValueError(f"--algo {algo} needs {want}; {task} is not. Valid: {', '.join(valid)}")
+
+
+def count(name: str, value, low: int = 1) -> int:
+    """`value` as an int >= `low`; ValueError naming `name` otherwise."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+    return int(value)
+
+
+def plan(task: str, algo: str, frames: int | None = None, seed: int = 0, overrides: dict | None = None,
+         muscle_model: str | None = None, source: str = "config"):
+    """Check everything that defines a run, before any work: (algorithm module, its config, the run's config.json).
+
+    The budget is rounded up to whole iterations (PPO: num_envs x steps_per_env frames; DQN/BDQ: num_envs)."""
+    from shoulder_bench.arm import MODEL_VERSION
+    from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
+    from shoulder_bench.muscle import MUSCLE_MODELS
+    from shoulder_bench.train.config import build
+
+    if algo not in ALGOS:
+        raise ValueError(f"unknown algorithm {algo!r}; choose from {', '.join(ALGOS)}")
+    check_task(task, algo)
+    asked = count("--frames", DEFAULT_FRAMES[algo] if frames is None else frames)
+    seed = count("--seed", seed, low=0)
+    muscle_model = muscle_model or DEFAULT_MUSCLE_MODEL
+    if muscle_model not in MUSCLE_MODELS:
+        raise ValueError(f"unknown muscle model {muscle_model!r}; choose one of {', '.join(MUSCLE_MODELS)}")
+    module, cls = algo_module(algo)
+    overrides = dict(overrides or {})
+    if algo == "ppo":
+        cfg = build(cls, module.LIMITS, overrides=overrides, source=source)
+    else:
+        for key in ("seed", "frames"):
+            if key in overrides:
+                raise ValueError(f"{source}: set {key} with --{key}, not in the config")
+        cfg = build(cls, module.LIMITS, base=module.config_for(task), overrides=overrides, source=source)
+    per = module.frames_per_iteration(cfg)
+    budget = -(-asked // per) * per
+    if algo != "ppo":
+        cfg = dataclasses.replace(cfg, seed=seed, frames=budget)
+    config = {"task": task, "algo": algo, "seed": seed, "frames": budget, "frames_asked": asked,
+              "frames_per_iteration": per, "muscle_model": muscle_model, "options": {},
+              "model_version": MODEL_VERSION, "config": dataclasses.asdict(cfg)}
+    return module, cfg, config
+
+
+def finished_metrics(out: Path, config: dict) -> dict | None:
+    """metrics.json of the finished run in `out` if it is the run `config` defines, with at least its frames."""
+    from shoulder_bench.train.run import check_same_run, identity_of
+
+    try:
+        metrics = json.loads((Path(out) / "metrics.json").read_text())
+        recorded = json.loads((Path(out) / "config.json").read_text())
+    except (OSError, json.JSONDecodeError):
+        return None
+    if not (Path(out) / "policy.pt").exists() or metrics.get("frames", 0) < config["frames"]:
+        return None
+    if identity_of(recorded) != identity_of(config):
+        check_same_run(recorded, config, Path(out))  # names the field
+    return metrics
