@@ -18,6 +18,7 @@ state keyed by `id()` (checked against a weak reference) instead of slower attri
 from __future__ import annotations
 
 import itertools
+import warnings
 import weakref
 from pathlib import Path
 
@@ -135,12 +136,32 @@ def _bias(m, d, i):
     return 0.0 if c < 0 else s.bias[c]
 
 
-def install_callbacks() -> None:
-    """Install the muscle callbacks (idempotent: once installed, nothing changes)."""
-    if mujoco.get_mjcb_act_gain() is not _gain:
-        mujoco.set_mjcb_act_gain(_gain)
-    if mujoco.get_mjcb_act_bias() is not _bias:
-        mujoco.set_mjcb_act_bias(_bias)
+_installed: list = [None]  # "native" or "python": what install_callbacks installed last
+
+
+def install_callbacks(native: bool | None = None) -> None:
+    """Install the muscle callbacks (idempotent). native=None (default): the compiled ones (`shoulder_bench.native`:
+    GIL-free, so `mujoco.rollout`'s threads can use them) where available, else the Python ones with a warning saying
+    why; True: compiled or RuntimeError; False: the Python ones (`_gain` / `_bias`, the reference of the equivalence
+    tests). Both evaluate the same law for the same model: `attach_law` registers every law with both."""
+    from shoulder_bench import native as compiled  # lazily: numba loads (or compiles) the callbacks
+
+    use = compiled.AVAILABLE if native is None else bool(native)
+    if native is None and not use and _installed[0] != "python":
+        warnings.warn(f"{compiled.REASON}; using the Python muscle callbacks", RuntimeWarning, stacklevel=2)
+    if use and not compiled.AVAILABLE:
+        raise RuntimeError(compiled.REASON)
+    gain, bias = (compiled.GAIN, compiled.BIAS) if use else (_gain, _bias)
+    if mujoco.get_mjcb_act_gain() is not gain:
+        mujoco.set_mjcb_act_gain(gain)
+    if mujoco.get_mjcb_act_bias() is not bias:
+        mujoco.set_mjcb_act_bias(bias)
+    _installed[0] = "native" if use else "python"
+
+
+def installed_callbacks() -> str | None:
+    """"native", "python" or None: which muscle callbacks `install_callbacks` installed last."""
+    return _installed[0]
 
 
 def attach_law(m: mujoco.MjModel, law, joint: str | None = None) -> None:
@@ -152,6 +173,12 @@ def attach_law(m: mujoco.MjModel, law, joint: str | None = None) -> None:
         raise ValueError(f"the model has no actuator(s) {unknown}; it has {names}")
     joint = law_joint(m, joint)
     law_id = next(_law_ids)
+    from shoulder_bench import native as compiled  # lazily: numba loads (or compiles) the callbacks
+
+    first = {a: v[0] for v in law.groups.values() for a in v}  # the actuator whose ctrl is each table's activation
+    jnt = m.joint(joint).id
+    compiled.register(law_id, law, [names.index(first[a]) for a in law.actuators], int(m.jnt_qposadr[jnt]),
+                      int(m.jnt_dofadr[jnt]))  # complete before actuator_user names the id
     _LAWS[law_id] = (law, joint)
     m.actuator_user[:, 0] = law_id
     m.actuator_user[:, 1] = [law.actuators.index(x) if x in law.actuators else -1 for x in names]

@@ -227,6 +227,12 @@ class ForceLaw:
                 self._one_state[:1], self._one_state[1:], self._one_act, out)
         return out[4, 0], out[2, 0]
 
+    def kernel_arguments(self) -> tuple:
+        """(flat table, moment arms (K, n), activation levels, first grid angle (rad), 1 / grid step (1/rad),
+        -1 / FV velocity scale per actuator): what the law's arithmetic (`law_point`) reads; the compiled callback
+        (`shoulder_bench.native`) holds them."""
+        return self._flat, self._arm, self.levels, self._a0, self._inv_da, self._neg_inv_vscale
+
     def moment_arm(self, angle: np.ndarray) -> np.ndarray:
         """(B, n) tendon moment arms (m) interpolated from the tables at angles (rad)."""
         x = np.clip((np.asarray(angle, dtype=float) - self._a0) * self._inv_da, 0.0, self._k - 1.000001)
@@ -263,6 +269,46 @@ def _optimal_fibre_length(t: MuscleTable) -> float:
     return float(t.meta["optimal_fibre_length_m"])
 
 
+@numba.njit(inline="always")
+def law_cell(angle, a0, inv_da, kmax):
+    """The angle's grid cell and the weight within it: (i, w), angles beyond the grid at its edges."""
+    x = min(max((angle - a0) * inv_da, 0.0), kmax)
+    i = int(x)
+    return i, x - i
+
+
+@numba.njit(inline="always")
+def law_point(flat, arm, levels, n, c, i, w, activation, velocity, neg_inv_vscale):
+    """The law for column `c` of a law with `n` columns at grid cell (i, w): (active force, active force per unit
+    activation, passive force, FV factor). The one implementation of the arithmetic: the batch kernel (`_kernel`) and
+    the compiled MuJoCo callback (`shoulder_bench.native`) both inline it."""
+    nj = levels.shape[0]
+    stride = nj * n
+    a = min(max(activation, 0.0), 1.0)
+    j = 0
+    while j < nj - 2 and levels[j + 1] <= a:
+        j += 1
+    u = (a - levels[j]) / (levels[j + 1] - levels[j])
+    p0 = flat[i * stride + c]
+    passive = p0 + (flat[(i + 1) * stride + c] - p0) * w
+    k = i * stride + j * n + c
+    lo = flat[k] + (flat[k + stride] - flat[k]) * w
+    hi = flat[k + n] + (flat[k + n + stride] - flat[k + n]) * w
+    active = lo + (hi - lo) * u - passive
+    # On the first level cell the law is linear in activation from the passive force: there the force per unit
+    # activation is the cell's slope (also at zero activation); elsewhere active force / activation.
+    per_unit = (hi - passive) / levels[1] if j == 0 else active / a
+    r = arm[i, c] + (arm[i + 1, c] - arm[i, c]) * w
+    v = r * velocity * neg_inv_vscale  # tendon lengthening rate in units of vmax
+    if v <= 0.0:
+        s = max(v + 1.0, 0.0)
+        fv = s * s
+    else:
+        s = max(FV_MAX - 1.0 - v, 0.0)
+        fv = FV_MAX - s * s / (FV_MAX - 1.0)
+    return active, per_unit, passive, fv
+
+
 @numba.njit(cache=True, nogil=True)
 def _kernel(flat, arm, levels, a0, inv_da, neg_inv_vscale, angle, velocity, activation, out):
     """The law for a batch: out[0..4] = active force, active force per unit activation, passive force, FV factor, and
@@ -272,36 +318,12 @@ def _kernel(flat, arm, levels, a0, inv_da, neg_inv_vscale, angle, velocity, acti
     (~1 us per operation) would cost more than the physics; one kernel serves the callback and the batch alike.
     """
     nb, n = activation.shape
-    nj = levels.shape[0]
     kmax = arm.shape[0] - 1.000001
-    stride = nj * n
     for b in range(nb):
-        x = min(max((angle[b] - a0) * inv_da, 0.0), kmax)
-        i = int(x)
-        w = x - i
+        i, w = law_cell(angle[b], a0, inv_da, kmax)
         for c in range(n):
-            a = min(max(activation[b, c], 0.0), 1.0)
-            j = 0
-            while j < nj - 2 and levels[j + 1] <= a:
-                j += 1
-            u = (a - levels[j]) / (levels[j + 1] - levels[j])
-            p0 = flat[i * stride + c]
-            passive = p0 + (flat[(i + 1) * stride + c] - p0) * w
-            k = i * stride + j * n + c
-            lo = flat[k] + (flat[k + stride] - flat[k]) * w
-            hi = flat[k + n] + (flat[k + n + stride] - flat[k + n]) * w
-            active = lo + (hi - lo) * u - passive
-            # On the first level cell the law is linear in activation from the passive force: there the force per
-            # unit activation is the cell's slope (also at zero activation); elsewhere active force / activation.
-            per_unit = (hi - passive) / levels[1] if j == 0 else active / a
-            r = arm[i, c] + (arm[i + 1, c] - arm[i, c]) * w
-            v = r * velocity[b] * neg_inv_vscale[c]  # tendon lengthening rate in units of vmax
-            if v <= 0.0:
-                s = max(v + 1.0, 0.0)
-                fv = s * s
-            else:
-                s = max(FV_MAX - 1.0 - v, 0.0)
-                fv = FV_MAX - s * s / (FV_MAX - 1.0)
+            active, per_unit, passive, fv = law_point(flat, arm, levels, n, c, i, w, activation[b, c], velocity[b],
+                                                      neg_inv_vscale[c])
             out[0, b, c] = active
             out[1, b, c] = per_unit
             out[2, b, c] = passive

@@ -17,6 +17,12 @@ last stage's acceleration of the previous step. With the v2 couplings (equality 
 choice shows: from a zero warmstart (what `rollout` does without one) the solver stops at its tolerance elsewhere and
 a 2 s free fall drifts 1e-9 rad from `mj_step`; carrying the warmstart per copy, as `mj_step` does, it agrees to
 rounding (1e-16). Models with equality constraints carry it by default; v1 (none) keeps the zero warmstart.
+
+engine="mujoco" (opt-in): MuJoCo integrates with its own RK4 and evaluates the law in its callbacks, the compiled ones
+(`shoulder_bench.native`, GIL-free): one `rollout(nstep=steps_per_frame)` call per frame instead of 4 per step.
+Within a frame rollout carries the warmstart from step to step as `mj_step` does; it returns none, so each frame
+starts from a zero warmstart: against the numpy engine 2.5e-14 rad over a 20 s episode with the law, 2e-11 rad over a
+2 s free fall (the solver's tolerance; tests/test_native.py).
 """
 from __future__ import annotations
 
@@ -26,11 +32,13 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from shoulder_bench.model import DEFAULT_JOINTS, MODEL_PATH, compile_model
+from shoulder_bench.model import DEFAULT_JOINTS, MODEL_PATH, attach_law, compile_model, install_callbacks
 
 RK4_A = ((0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))  # MuJoCo's RK4 tableau
 RK4_B = (1 / 6, 1 / 3, 1 / 3, 1 / 6)
 MAX_ACCELERATION = 1e10  # MuJoCo's mjMAXVAL for qacc
+ENGINES = ("numpy", "mujoco")
+START_TIME = 1e3  # s: every frame's rollout starts at this time (nothing depends on it), so a MuJoCo reset shows
 SCALAR_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
 
@@ -47,11 +55,12 @@ class BatchSimulator:
     (default as `model.attach_law`: `abduction` (v1) if the model has it, else `shoulder_elv` (v2); needed only
     with a law). warmstart: carry MuJoCo's `qacc_warmstart` per copy in
     `self.warmstart` (N, nv) as `mj_step` does (default: iff the model has equality constraints); zero a copy's row
-    where its episode restarts (`mj_resetData` does).
+    where its episode restarts (`mj_resetData` does). engine: "numpy" (the RK4 above, default) or "mujoco" (MuJoCo's
+    RK4 through the compiled callbacks, one rollout per frame; no warmstart across frames, `warmstart=True` refused).
     """
 
     def __init__(self, law, num: int, nthread: int = 2, path: Path | str = MODEL_PATH, *, xml: str | None = None,
-                 prepare=None, joint: str | None = None, warmstart: bool | None = None):
+                 prepare=None, joint: str | None = None, warmstart: bool | None = None, engine: str = "numpy"):
         source = "the MJCF text" if xml is not None else str(path)
         m = compile_model(path, prepare) if xml is None else compile_model(prepare=prepare, xml=xml)
         self.h = float(m.opt.timestep)
@@ -81,9 +90,26 @@ class BatchSimulator:
         if law is not None and joint is None:
             raise ValueError(f"{source}: the law needs a joint angle; name the joint (joint=...), one of {joints}")
         self.joint = joint
+        if engine not in ENGINES:
+            raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
+        self.engine = engine
         # column of the law's angle in qpos / qvel (None without a joint)
         self.qadr = None if joint is None else int(m.joint(joint).qposadr[0])
         self.dadr = None if joint is None else int(m.joint(joint).dofadr[0])
+        if engine == "mujoco":  # MuJoCo's RK4 through the compiled callbacks (shoulder_bench.native)
+            if law is not None:
+                attach_law(m, law, joint)
+                first = {a: k for k, v in enumerate(law.groups.values()) for a in v}
+                self._muscle_of = np.array([first[a] for a in law.actuators])  # the muscle of each law column
+            install_callbacks(native=True)
+            if warmstart:
+                raise ValueError("engine='mujoco' cannot carry the warmstart across frames (rollout returns none); "
+                                 "within a frame MuJoCo carries it, and each frame starts from zero")
+            warmstart = False
+            self.model, self.law, self.num = m, law, num
+            self.steps_per_frame = int(round(0.1 / self.h))
+            self._setup_state(m, num, nthread, warmstart, self.steps_per_frame)
+            return
         # the acceleration oracle: muscle forces as plain controls, one explicit Euler step (damping explicit too)
         m.actuator_gaintype[:] = mujoco.mjtGain.mjGAIN_FIXED
         m.actuator_gainprm[:] = 0.0
@@ -94,23 +120,28 @@ class BatchSimulator:
         m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EULERDAMP
         self.model, self.law, self.num = m, law, num
         self.steps_per_frame = int(round(0.1 / self.h))
+        self._setup_state(m, num, nthread, warmstart, 1)
+
+    def _setup_state(self, m, num: int, nthread: int, warmstart, nstep: int) -> None:
         spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
         nstate = mujoco.mj_stateSize(m, spec)
         d = mujoco.MjData(m)
         probe = np.zeros(nstate)
         # markers: where qpos and qvel sit in the state vector (each contiguous there)
-        d.qpos[:], d.qvel[:] = 1e6 + np.arange(m.nq), 2e6 + np.arange(m.nv)
+        d.qpos[:], d.qvel[:], d.time = 1e6 + np.arange(m.nq), 2e6 + np.arange(m.nv), 3e6
         mujoco.mj_getState(m, d, probe, spec)
         iq, iv = int(np.flatnonzero(probe == 1e6)[0]), int(np.flatnonzero(probe == 2e6)[0])
+        self._it = int(np.flatnonzero(probe == 3e6)[0])
         assert (probe[iq:iq + m.nq] == d.qpos).all() and (probe[iv:iv + m.nv] == d.qvel).all()
         self._iq, self._iv = slice(iq, iq + m.nq), slice(iv, iv + m.nv)
         mujoco.mj_resetData(m, d)
         base = np.zeros(nstate)
         mujoco.mj_getState(m, d, base, spec)
         self._state = np.tile(base, (num, 1))
-        self._ctrl = np.zeros((num, 1, m.nu))
-        self._out = np.zeros((num, 1, nstate))
-        self._sens = np.zeros((num, 1, m.nsensordata))
+        self._state[:, self._it] = START_TIME
+        self._ctrl = np.zeros((num, nstep, m.nu))
+        self._out = np.zeros((num, nstep, nstate))
+        self._sens = np.zeros((num, nstep, m.nsensordata))
         self.carry_warmstart = bool(m.neq) if warmstart is None else bool(warmstart)
         self.warmstart = np.zeros((num, m.nv)) if self.carry_warmstart else None
         self._datas = [mujoco.MjData(m) for _ in range(nthread)]
@@ -166,9 +197,26 @@ class BatchSimulator:
             raise ValueError(f"qpos {qpos.shape} and qvel {qvel.shape}: expected ({self.num}, {self.nq}) and "
                              f"({self.num}, {self.nv})")
         self.bad = np.zeros(self.num, dtype=bool)
+        if self.engine == "mujoco":
+            return self._mujoco_frame(qpos, qvel, act)
         for _ in range(self.steps_per_frame):
             qpos, qvel = self.step(qpos, qvel, act)
         return qpos, qvel, self.bad
+
+    def _mujoco_frame(self, qpos, qvel, act):
+        """engine="mujoco": one `rollout` of steps_per_frame RK4 steps, the law in MuJoCo's callbacks."""
+        if self.law is not None:
+            self._ctrl[:, :, self.columns] = np.asarray(act, dtype=np.float64)[:, None, self._muscle_of]
+        self._state[:, self._iq] = qpos
+        self._state[:, self._iv] = qvel
+        self._rollout.rollout(self._models, self._datas, self._state, self._ctrl, nstep=self.steps_per_frame,
+                              skip_checks=True, initial_warmstart=self.warmstart, state=self._out,
+                              sensordata=self._sens)
+        end = self._out[:, -1]
+        qpos, qvel = end[:, self._iq].copy(), end[:, self._iv].copy()
+        # MuJoCo resets a copy whose acceleration is unstable (the single env's crash warning): its time restarts at 0
+        self.bad |= ~(end[:, self._it] > START_TIME) | ~np.isfinite(end).all(axis=1)
+        return qpos, qvel, self.bad.copy()
 
     def frame(self, q: np.ndarray, v: np.ndarray, act=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """`frame_state`; for a one-joint model (v1) q and v may also be the angles and velocities (N,), and then

@@ -1,0 +1,253 @@
+"""The force law as compiled MuJoCo callbacks: `gain(m, d, i)` and `bias(m, d, i)` as C function pointers.
+
+The design's "plugin-style callback": MuJoCo calls `mjcb_act_gain` / `mjcb_act_bias` for every `user` actuator at
+every RK4 stage. Installed as Python functions they need the GIL (so `mujoco.rollout`'s threads cannot use them) and
+cost microseconds per call; these are numba `cfunc`s, machine code with the C signature
+`mjtNum f(const mjModel*, const mjData*, int)`, installed through their addresses (`mujoco.set_mjcb_act_gain` takes a
+ctypes function pointer). No compiler is needed at run time: numba compiles them once and caches the machine code
+(`cache=True`) beside this file. The arithmetic is `muscle.law_point`, the same inlined function the batch kernel
+runs, so the two paths agree bit for bit.
+
+What a call reads:
+- From the calling model and data, through their C structs: `actuator_user` (and `nuser_actuator`) of the
+  model, `qpos`, `qvel`, `ctrl` of the data. The byte offsets of these fields in mjModel / mjData are found at import
+  by scanning the structs of small probe models for the known values (`find_offsets`: a pointer equal to
+  `d.qpos.ctypes.data`, a size equal to the probe's `nuser_actuator`, ...), each required to be the same in three
+  probes of different sizes; if any is not found, `AVAILABLE` is False, `REASON` says why and
+  `model.install_callbacks` falls back to the Python callbacks.
+- Per actuator, the law id in `actuator_user[i, 0]` and the law's column in `[i, 1]` (as `model.attach_law` writes
+  them). The id is a row of the process-global registry: addresses of the law's flat table, moment arms, activation
+  levels and force-velocity scales, the grid constants, the law joint's qpos / dof address in that model, and, per
+  column, the actuator whose ctrl is that column's activation (a muscle's first actuator: v2's ld drives ld1-3).
+  An id without a row, a column outside the law or a model without user columns gives 0.0.
+
+The registry: `_ROOT` (fixed for the process; the callbacks find it through the symbol `shoulder_bench_native_root`,
+which is resolved when the cached machine code is loaded, so the cache holds no address) holds the address of the
+current row table; the table's first word is its capacity. Growing allocates a new table, copies the rows and then
+swaps the address (one aligned 8-byte store); old tables stay allocated, so a thread that read the old address still
+reads valid rows. Rows are written before the model's `actuator_user` names them and are never changed or freed: a
+row and the arrays it points into (held in `_KEEP`) live as long as the process, as the law ids of `model` do. The
+callbacks keep no state of their own, so any number of threads may call them at once.
+"""
+from __future__ import annotations
+
+import ctypes
+
+import llvmlite.binding as llvm
+import mujoco
+import numba
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
+
+from shoulder_bench.muscle import law_cell, law_point
+
+SYMBOL = "shoulder_bench_native_root"
+ROW = 16  # int64 words per registry row
+# row layout (int64 words; A0 and INV_DA hold float64 bits)
+VALID, FLAT, ARM, LEVELS, NIVS, CTRL_OF, NCOL, NK, NLEV, QADR, VADR, A0, INV_DA = range(13)
+# _ROOT layout
+TABLE, M_USER, M_NUSER, D_QPOS, D_QVEL, D_CTRL = range(6)
+
+_ROOT = np.zeros(8, dtype=np.int64)
+llvm.add_symbol(SYMBOL, _ROOT.ctypes.data)
+_TABLES: list[np.ndarray] = []  # every row table ever made (the current one last), never freed
+_KEEP: dict[int, tuple] = {}  # law id -> the arrays its row points into
+
+
+@intrinsic
+def _root(typingctx):
+    """The address of `_ROOT`, through the external symbol (resolved when the machine code is loaded)."""
+    def codegen(context, builder, sig, args):
+        gv = builder.module.globals.get(SYMBOL)
+        if gv is None:
+            gv = ir.GlobalVariable(builder.module, ir.IntType(64), name=SYMBOL)
+            gv.linkage = "external"
+        return builder.ptrtoint(gv, ir.IntType(64))
+    return types.int64(), codegen
+
+
+def _pointer_intrinsic(target):
+    @intrinsic
+    def as_pointer(typingctx, address):
+        sig = types.CPointer(target)(types.int64)
+
+        def codegen(context, builder, sig, args):
+            return builder.inttoptr(args[0], context.get_value_type(sig.return_type))
+        return sig, codegen
+    return as_pointer
+
+
+_f64p = _pointer_intrinsic(types.float64)
+_i64p = _pointer_intrinsic(types.int64)
+
+
+@intrinsic
+def _address(typingctx, pointer):
+    def codegen(context, builder, sig, args):
+        return builder.ptrtoint(args[0], ir.IntType(64))
+    return types.int64(types.voidptr), codegen
+
+
+@numba.njit(inline="always")
+def _word(address):
+    return numba.carray(_i64p(address), 1)[0]
+
+
+@numba.njit(inline="always")
+def _evaluate(m, d, i):
+    """(gain, bias) of actuator i of model m in data d: -(active per unit activation x FV), -passive (muscles
+    pull); (0, 0) where the actuator has no law."""
+    root = numba.carray(_i64p(_root()), 8)
+    mp, dp = _address(m), _address(d)
+    nuser = _word(mp + root[M_NUSER])
+    if nuser < 2 or i < 0:  # MuJoCo passes actuator indices, 0 <= i < nu
+        return 0.0, 0.0
+    user = numba.carray(_f64p(_word(mp + root[M_USER])), (i + 1) * nuser)
+    lid, col = user[i * nuser], user[i * nuser + 1]
+    table = root[TABLE]
+    capacity = _word(table)
+    if not (0.0 < lid < capacity and col >= 0.0) or int(lid) != lid:  # NaN fails the comparisons
+        return 0.0, 0.0
+    row = numba.carray(_i64p(table + 8 * ROW * int(lid)), ROW)
+    rowf = numba.carray(_f64p(table + 8 * ROW * int(lid)), ROW)
+    n = row[NCOL]
+    c = int(col)
+    if row[VALID] != 1 or c != col or c >= n:
+        return 0.0, 0.0
+    nk, nlev = row[NK], row[NLEV]
+    levels = numba.carray(_f64p(row[LEVELS]), nlev)
+    flat = numba.carray(_f64p(row[FLAT]), nk * nlev * n)
+    arm = numba.carray(_f64p(row[ARM]), (nk, n))
+    nivs = numba.carray(_f64p(row[NIVS]), n)
+    ctrl_of = numba.carray(_i64p(row[CTRL_OF]), n)
+    qpos = numba.carray(_f64p(_word(dp + root[D_QPOS])), row[QADR] + 1)
+    qvel = numba.carray(_f64p(_word(dp + root[D_QVEL])), row[VADR] + 1)
+    ctrl = numba.carray(_f64p(_word(dp + root[D_CTRL])), ctrl_of[c] + 1)
+    i_cell, w = law_cell(qpos[row[QADR]], rowf[A0], rowf[INV_DA], nk - 1.000001)
+    _, per_unit, passive, fv = law_point(flat, arm, levels, n, c, i_cell, w, ctrl[ctrl_of[c]], qvel[row[VADR]],
+                                         nivs[c])
+    return -(per_unit * fv), -passive
+
+
+SIGNATURE = types.float64(types.voidptr, types.voidptr, types.int32)
+
+
+@numba.cfunc(SIGNATURE, nopython=True, nogil=True, cache=True)
+def gain(m, d, i):
+    return _evaluate(m, d, i)[0]
+
+
+@numba.cfunc(SIGNATURE, nopython=True, nogil=True, cache=True)
+def bias(m, d, i):
+    return _evaluate(m, d, i)[1]
+
+
+# --- the registry ----------------------------------------------------------------------------------------------------
+def _grow(capacity: int) -> np.ndarray:
+    """A row table of at least `capacity` rows holding the current rows; made current by one aligned store."""
+    old = _TABLES[-1] if _TABLES else None
+    table = np.zeros((capacity, ROW), dtype=np.int64)
+    if old is not None:
+        table[:len(old)] = old
+    table[0, 0] = capacity  # row 0 is no law: its first word is the capacity
+    _TABLES.append(table)
+    _ROOT[TABLE] = table.ctypes.data
+    return table
+
+
+_grow(256)
+
+
+def register(law_id: int, law, ctrl_of, qadr: int, vadr: int) -> None:
+    """Fill row `law_id` for `law` attached to a model: `ctrl_of[c]` is the actuator whose ctrl is column c's
+    activation, (qadr, vadr) the law joint's qpos and dof addresses in that model. Call before the model's
+    `actuator_user` names the id (the row is complete before any callback can read it)."""
+    if law_id < 1:
+        raise ValueError(f"law id {law_id} must be >= 1")
+    table = _TABLES[-1]
+    while law_id >= len(table):
+        table = _grow(2 * len(table))
+    flat, arm, levels, a0, inv_da, nivs = law.kernel_arguments()
+    ctrl_of = np.ascontiguousarray(ctrl_of, dtype=np.int64)
+    arrays = tuple(np.ascontiguousarray(x, dtype=np.float64) for x in (flat, arm, levels, nivs))
+    flat, arm, levels, nivs = arrays
+    n = arm.shape[1]
+    if ctrl_of.shape != (n,) or nivs.shape != (n,) or flat.size != arm.shape[0] * levels.size * n:
+        raise ValueError("inconsistent law arrays for the native callback")
+    row = np.zeros(ROW, dtype=np.int64)
+    row[FLAT], row[ARM], row[LEVELS], row[NIVS] = (x.ctypes.data for x in arrays)
+    row[CTRL_OF] = ctrl_of.ctypes.data
+    row[NCOL], row[NK], row[NLEV], row[QADR], row[VADR] = n, arm.shape[0], levels.size, qadr, vadr
+    row[A0:INV_DA + 1] = np.array([a0, inv_da], dtype=np.float64).view(np.int64)
+    _KEEP[law_id] = (*arrays, ctrl_of, law)
+    table[law_id, 1:] = row[1:]
+    table[law_id, VALID] = 1  # last: a reader sees a complete row or none
+
+
+# --- struct offsets --------------------------------------------------------------------------------------------------
+_PROBES = ((2, 3, 4), (3, 5, 6), (4, 7, 9))  # (hinge joints, actuators, nuser_actuator) of the three probes
+SCAN_LIMIT = 1 << 20  # bytes: the fields searched lie far inside both structs
+POINTER_RUN = 256  # bytes after a pointer's first match within which later fields may share its value
+
+
+def _probe(joints: int, actuators: int, nuser: int) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    bodies = "".join(f'<body><joint name="j{k}"/><geom size="0.1" mass="1"/>' for k in range(joints))
+    acts = "".join(f'<general joint="j{k % joints}"/>' for k in range(actuators))
+    m = mujoco.MjModel.from_xml_string(f'<mujoco><size nuser_actuator="{nuser}"/><worldbody>{bodies}'
+                                       f'{"</body>" * joints}</worldbody><actuator>{acts}</actuator></mujoco>')
+    return m, mujoco.MjData(m)
+
+
+def _words(address: int, nbytes: int) -> np.ndarray:
+    return np.frombuffer(ctypes.string_at(address, nbytes), dtype=np.int64)
+
+
+def _matches(address: int, value: int, pointer: bool) -> list[int]:
+    """Byte offsets of the 8-byte words equal to `value` in the struct at `address`: all of them for a size
+    (searched in the first 64 KiB), for a pointer the last of those within POINTER_RUN bytes of its first match
+    (zero-size arrays just before it share its address and come before it)."""
+    if not pointer:
+        return [int(k) * 8 for k in np.flatnonzero(_words(address, 1 << 16) == value)]
+    chunk = 4096
+    for start in range(0, SCAN_LIMIT, chunk):
+        hits = np.flatnonzero(_words(address + start, chunk) == value)
+        if hits.size:
+            first = start + 8 * int(hits[0])
+            run = np.flatnonzero(_words(address + first, POINTER_RUN) == value)
+            return [first + 8 * int(run[-1])]
+    return []
+
+
+def find_offsets() -> dict[str, int]:
+    """Byte offsets of mjModel.actuator_user / nuser_actuator and mjData.qpos / qvel / ctrl in this MuJoCo,
+    from three probe models of different sizes; RuntimeError if a field is not found at one offset in all three."""
+    found: dict[str, set] = {}
+    for joints, actuators, nuser in _PROBES:
+        m, d = _probe(joints, actuators, nuser)
+        targets = {"actuator_user": (m._address, m.actuator_user.ctypes.data, True),
+                   "nuser_actuator": (m._address, nuser, False),
+                   "qpos": (d._address, d.qpos.ctypes.data, True), "qvel": (d._address, d.qvel.ctypes.data, True),
+                   "ctrl": (d._address, d.ctrl.ctypes.data, True)}
+        for name, (address, value, pointer) in targets.items():
+            hits = set(_matches(address, value, pointer))
+            found[name] = hits if name not in found else found[name] & hits
+    bad = [name for name, hits in found.items() if len(hits) != 1]
+    if bad:
+        raise RuntimeError(f"MuJoCo {mujoco.__version__}: the struct offsets of {bad} were not found uniquely "
+                           "in the probe models")
+    return {name: hits.pop() for name, hits in found.items()}
+
+
+try:
+    OFFSETS = find_offsets()
+    AVAILABLE, REASON = True, ""
+    _ROOT[M_USER], _ROOT[M_NUSER] = OFFSETS["actuator_user"], OFFSETS["nuser_actuator"]
+    _ROOT[D_QPOS], _ROOT[D_QVEL], _ROOT[D_CTRL] = (OFFSETS[k] for k in ("qpos", "qvel", "ctrl"))
+except Exception as exc:  # noqa: BLE001 - any failure means: use the Python callbacks
+    OFFSETS, AVAILABLE, REASON = {}, False, f"native muscle callback unavailable: {exc}"
+
+# ctypes function pointers of the callbacks (kept here: MuJoCo holds only the raw address)
+GAIN = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int)(gain.address)
+BIAS = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int)(bias.address)
