@@ -160,3 +160,21 @@ def test_validate_v2_reports_the_force_targets_with_numbers(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "not yet" not in out and statics_v2.LABEL in out
     assert f"{len(failed)} target(s) missed: exit status 1" in out and rc == 1
+
+
+def test_parent_passive_curve_is_the_files_and_lets_the_arm_hang():
+    """The parent's passive force-length curve (extracted from its .osim) is zero up to stretch 1.15 and 0.035 at 1.25,
+    the same for every v2 muscle; with it instead of Blemker's the static estimate's relaxed arm hangs (information
+    beside the rest-angle and passive-torque targets)."""
+    from shoulder_bench.authoring import tendons
+
+    x, y = tendons.parent_curve("SUPSP")
+    for m in ("INFSP", "DELT2", "LAT1", "LAT2", "LAT3"):
+        xm, ym = tendons.parent_curve(m)
+        assert np.array_equal(xm, x) and np.array_equal(ym, y)
+    assert np.all(tendons.parent_passive([0.5, 1.0, 1.15], "SUPSP") == 0.0)
+    assert tendons.parent_passive(1.25, "SUPSP") == pytest.approx(0.035)
+    s = statics_v2.summary(statics_v2.analyse(0), references.load())
+    pc = s["parent_passive_curve"]
+    assert abs(pc["relaxed_rest_deg"]) < 5.0 and abs(pc["passive_max_Nm"]) < 0.5
+    assert s["relaxed_rest_deg"] > 5.0  # Blemker's curve, which the targets judge, holds the arm up

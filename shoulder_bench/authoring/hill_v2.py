@@ -32,14 +32,14 @@ import mujoco
 import numpy as np
 
 from shoulder_bench import arm
-from shoulder_bench.authoring import anatomy, mobl, references, statics_v2, tendons
+from shoulder_bench.authoring import mobl, statics_v2, tendons
 from shoulder_bench.authoring.hill import ACTIVATION_GRID, ANGLE_GRID_DEG
 from shoulder_bench.model import MODELS_DIR, attach_law, compile_model, install_callbacks
 from shoulder_bench.muscle import ForceLaw, replacing, table_path
 
 FOLDER = MODELS_DIR / "muscles_v2"
 TENDONS = statics_v2.TENDONS  # ssp, isp, dmi, ld1, ld2, ld3
-PARENT_MUSCLE = {t: b for m in anatomy.MUSCLES for t, b in references.V2_TENDONS[m].items()}  # ld1 -> LAT1
+PARENT_MUSCLE = statics_v2.PARENT_MUSCLE  # ld1 -> LAT1
 CODE_VERSION = "hill-v2-1"
 BOUND_PCT = 1.0  # the model-v2 issue: applied torque = table torque within 1 % of each muscle's peak
 PROVENANCE = ("MoBL-ARMS parent (models/reference/mobl_arms_parent_muscles.csv, from stanfordnmbl/osim-rl@610b95c "

@@ -51,6 +51,7 @@ CAPACITY_DEG = (0.0, 5.0, 10.0)
 GIRDLE = "coupled"
 BUNDLES = {m: tuple(references.V2_TENDONS[m]) for m in anatomy.MUSCLES}  # ld: ld1, ld2, ld3
 TENDONS = tuple(t for m in anatomy.MUSCLES for t in BUNDLES[m])
+PARENT_MUSCLE = {t: references.V2_TENDONS[m][t] for m in anatomy.MUSCLES for t in BUNDLES[m]}  # ld1 -> LAT1
 
 
 class LockedPath(arm.LockedPath):
@@ -96,6 +97,16 @@ class Statics:
 
     def passive(self) -> np.ndarray:
         return sum(self.muscle_torque(0.0).values())
+
+    def passive_parent_curve(self) -> np.ndarray:
+        """(n,) N m: the net passive torque with the parent's own passive force-length curve instead of Blemker's
+        (`tendons.parent_passive`; information, not what the targets judge)."""
+        out = np.zeros(len(self.elevation_deg))
+        for k, t in enumerate(TENDONS):
+            p = self.params[k]
+            lam, cos_a = fibres(self.lengths[:, k], p)
+            out += p.f0 * tendons.parent_passive(lam, PARENT_MUSCLE[t]) * cos_a * self.arms[:, k]
+        return out
 
     def isometric(self) -> dict[str, np.ndarray]:
         on, off = self.muscle_torque(1.0), self.muscle_torque(0.0)
@@ -158,12 +169,19 @@ def summary(st: Statics, refs: references.ReferenceTables) -> dict:
     cap = st.at(CAPACITY_DEG)
     ssp_on, ssp_off = st.muscle_torque(1.0)["ssp"], st.muscle_torque(0.0)["ssp"]
     i0 = st.at([0.0])[0]
+    pp = st.passive_parent_curve()
+    pp_win = pp[st.at(pdeg)]
+    kp = int(np.argmax(np.abs(pp_win)))
     lam0 = {t: float(fibres(st.lengths[i0, k], q)[0]) for k, (t, q) in enumerate(zip(TENDONS, st.params))}
     return {"plane_deg": st.plane_deg, "method": LABEL, "elevation_range_deg": list(RANGE_DEG), "step_deg": STEP_DEG,
             "relaxed_rest_deg": statics.rest_on_grid(deg, passive + st.gravity),
             "passive_angle_deg": pdeg.tolist(), "passive_torque_Nm": np.round(p, 4).tolist(),
             "passive_max_Nm": float(p[k]), "passive_max_at_deg": float(pdeg[k]),
             "gravity_at_0_Nm": float(st.gravity[i0]), "lam_at_0": lam0,
+            "parent_passive_curve": {"relaxed_rest_deg": statics.rest_on_grid(deg, pp + st.gravity),
+                                     "passive_max_Nm": float(pp_win[kp]), "passive_max_at_deg": float(pdeg[kp]),
+                                     "note": "the parent's passive force-length curve (zero up to 1.15) instead of "
+                                             "Blemker's; information, no target"},
             "peak_isometric_torque": peaks,
             "capacity_ratio_ssp_dmi": {f"{a:g}": float(iso["ssp"][i] / iso["dmi"][i])
                                        for a, i in zip(CAPACITY_DEG, cap)},
@@ -182,6 +200,9 @@ def table(summaries: dict[str, dict]) -> str:
            "passive torque at 0 deg": lambda s: f"{s['passive_torque_Nm'][0]:+.2f} N m",
            "passive, largest 0-20 deg": lambda s: f"{s['passive_max_Nm']:+.2f} N m at {s['passive_max_at_deg']:g}",
            "gravity torque at 0 deg": lambda s: f"{s['gravity_at_0_Nm']:+.2f} N m",
+           "rest, parent's passive curve": lambda s: f"{s['parent_passive_curve']['relaxed_rest_deg']:.1f} deg",
+           "passive 0-20, parent's curve": lambda s: (f"{s['parent_passive_curve']['passive_max_Nm']:+.2f} N m at "
+                                                      f"{s['parent_passive_curve']['passive_max_at_deg']:g}"),
            **{f"{m} peak isometric / expected": lambda s, m=m: _peak(s["peak_isometric_torque"][m])
               for m in anatomy.MUSCLES},
            **{f"ssp/dmi capacity at {a:g} deg": lambda s, a=a: f"{s['capacity_ratio_ssp_dmi'][f'{a:g}']:.2f}"

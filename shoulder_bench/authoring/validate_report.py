@@ -97,6 +97,9 @@ def _say_targets(r, say):
         if t.get("tables"):  # v2: the tasks' own tables' value beside a force target (no target)
             tab = t["tables"]
             say(f"       {tab['label']}, shown, no target: {'pass' if tab['passed'] else 'FAIL'}: {tab['measured']}")
+        if t.get("parent_passive_curve"):  # v2: the estimate with the MoBL parent's own passive curve (no target)
+            say(f"       with the parent's passive force-length curve (zero up to stretch 1.15; Blemker's starts at "
+                f"1), shown, no target: {t['parent_passive_curve']}")
         if t["note"]:
             say(f"       {t['note']}")
     for f in r.get("figures", []):

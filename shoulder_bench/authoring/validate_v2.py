@@ -44,6 +44,7 @@ PLANES = tuple(references.PLANES.values())
 TABLE_LABELS = {"fem": "FEM tables (the tasks' muscles)", "hill": "Hill tables (the tasks' alternative muscles)"}
 FORCE_NOTE = ("judged on the static rigid-tendon Hill estimate (parent's parameters, Blemker curves; both planes); the "
               "tasks' tables are shown beside it, no target")
+PARENT_PASSIVE_IDS = ("rest_angle", "passive_torque")  # shown with the parent's own passive curve too (no target)
 FORCE_IDS = ("rest_angle", "passive_torque", *(f"peak_torque/{m}" for m in anatomy.MUSCLES))
 FORCE_QUANTITIES = ("relaxed_rest_deg", "passive_angle_deg", "passive_torque_Nm", "peak_isometric_torque",
                     "capacity_ratio_ssp_dmi", "ssp_static_reach_deg")
@@ -191,6 +192,10 @@ def evaluate(view: V.ModelView, shown: str, path, muscle_model: str = "fem") -> 
         assert t["id"] in FORCE_IDS, t["id"]
         if tables is not None:
             t["tables"] = {"label": tables["label"], **tables["targets"][t["id"]]}
+        if tp is not None and t["id"] in PARENT_PASSIVE_IDS:  # the same estimate with the parent's passive curve
+            pc = statics[tp]["parent_passive_curve"]
+            t["parent_passive_curve"] = (f"{pc['relaxed_rest_deg']:.1f} deg" if t["id"] == "rest_angle" else
+                                         f"{pc['passive_max_Nm']:+.2f} N m at {pc['passive_max_at_deg']:g} deg")
     targets = arm_targets + force_targets + sign_targets
     per_plane = {str(p): {"passed": sum(t["passed"] for t in r[0] + r[1]), "of": len(r[0] + r[1]),
                           "force_passed": sum(t["passed"] for t in forces[p]), "force_of": len(forces[p])}

@@ -6,7 +6,11 @@ Usage (from the repository root; the .osim is not part of this repository):
     git --git-dir=<osim-rl clone>/.git show $C:osim/models/MoBL_ARMS_J.osim > /tmp/MoBL_ARMS_J.osim
     md5sum /tmp/MoBL_ARMS_J.osim   # d6b9866c4f721f481e7d9e0bdae51093
     python models/reference/scripts/extract_parent_muscles.py /tmp/MoBL_ARMS_J.osim \
-        --out models/reference/mobl_arms_parent_muscles.csv
+        --out models/reference/mobl_arms_parent_muscles.csv --curves models/reference/mobl_arms_parent_curves.csv
+
+`--curves` also writes each muscle's three SimmSpline curves (tendon_force_length_curve, active_force_length_curve,
+passive_force_length_curve: normalised length or strain -> normalised force), one row per knot, x and y as the file
+spells them.
 
 Standard library only (xml.etree). Each value is written exactly as the file spells it (no float reformatting).
 The muscle class is the XML element's tag (e.g. Schutte1993Muscle_Deprecated). A muscle element that lacks one of
@@ -60,10 +64,30 @@ def extract(path: str) -> list[dict]:
     return rows
 
 
+CURVE_COLUMNS = ("muscle", "curve", "knot", "x", "y")
+
+
+def extract_curves(path: str) -> list[dict]:
+    """Each muscle's SimmSpline curves, one row per knot (values as spelled in the file)."""
+    root = ET.parse(path).getroot()
+    rows = []
+    for el in root.findall("./Model/ForceSet/objects/*"):
+        if el.get("name") not in MUSCLES:
+            continue
+        for spline in el.findall("SimmSpline"):
+            xs, ys = spline.find("x").text.split(), spline.find("y").text.split()
+            if len(xs) != len(ys):
+                raise SystemExit(f"{path}: {el.get('name')} {spline.get('name')}: {len(xs)} x but {len(ys)} y")
+            rows += [{"muscle": el.get("name"), "curve": spline.get("name"), "knot": k, "x": x, "y": y}
+                     for k, (x, y) in enumerate(zip(xs, ys))]
+    return rows
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("osim", help="local copy of MoBL_ARMS_J.osim")
     ap.add_argument("--out", help="CSV to write (default: stdout)")
+    ap.add_argument("--curves", help="also write the muscles' force-length curves to this CSV")
     args = ap.parse_args(argv)
     with open(args.osim, "rb") as f:
         md5 = hashlib.md5(f.read()).hexdigest()
@@ -76,6 +100,12 @@ def main(argv=None) -> int:
     finally:
         if args.out:
             out.close()
+    if args.curves:
+        curves = extract_curves(args.osim)
+        with open(args.curves, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=CURVE_COLUMNS, lineterminator="\n")
+            w.writeheader()
+            w.writerows(curves)
     print(f"{args.osim}: md5 {md5}, {len(rows)} muscles", file=sys.stderr)
     return 0
 
