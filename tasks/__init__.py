@@ -38,7 +38,8 @@ def load(name: str, split: str = "train", seed=None, trajectory=None, **options)
 
     split: "train" (10 s targets in [30, 90] deg) or "test" (20 s, [20, 100] deg); seed: the episode draws;
     trajectory: a CSV path, an array of degrees at 0.1 s, or a `Trajectory` to track instead of random targets;
-    options: muscle_model ("fem"/"hill"), alpha, omega_max, tracking_only, init ("hold"/"zero"). A bad option raises
+    options: muscle_model ("fem"/"hill"), alpha, omega_max, tracking_only, init ("hold"/"zero"), joint_damping,
+    delay_frames, obs_noise_deg (`shoulder_bench.tasks.sensing`). A bad option raises
     ValueError naming it and what it accepts (`shoulder_bench.tasks.options.OPTIONS`).
     """
     from shoulder_bench.tasks import options as opt
@@ -47,3 +48,4 @@ def load(name: str, split: str = "train", seed=None, trajectory=None, **options)
     opt.check_names(options)
     muscles, discrete, _ = TASKS[check_name(name)]
     return make_env(muscles, discrete=discrete, split=split, seed=seed, trajectory=trajectory, **options)
+

@@ -7,6 +7,7 @@ U[20, 100] deg) or a given one. Numerical failure ends the episode with a penalt
 """
 from __future__ import annotations
 
+import collections
 import math
 
 import numpy as np
@@ -20,6 +21,7 @@ from shoulder_bench import arm as arm_
 from shoulder_bench import protocol, statics, trajectory
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL, attach_law, install_callbacks, law_of
 from shoulder_bench.tasks import options as opt
+from shoulder_bench.tasks import sensing
 from shoulder_bench.trajectory import as_trajectory
 
 VALID_MARGIN_DEG = arm_.VALID_MARGIN_DEG  # beyond the joint range by more than this = the simulation has failed
@@ -106,7 +108,7 @@ class Abduction(control.Task):
 
     def __init__(self, muscles, discrete=False, split="train", trajectory_=None, tracking_only=None,
                  alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", joint_damping=0.0,
-                 random=None, **unknown):
+                 delay_frames=0, obs_noise_deg=0.0, random=None, **unknown):
         super().__init__()
         opt.check_names(unknown)
         self.muscles = tuple(muscles)
@@ -120,6 +122,11 @@ class Abduction(control.Task):
         self.init = opt.choice("init", init, INITS)
         # viscous damping of the elevation joint (N m s/rad); the model has none (docs/model_v2.md "Damping")
         self.joint_damping = opt.number("joint_damping", joint_damping, 0.0, MAX_JOINT_DAMPING)
+        # what the agent senses (shoulder_bench.tasks.sensing): k frames late, with Gaussian noise
+        self.delay_frames = opt.integer("delay_frames", delay_frames, 0, sensing.MAX_DELAY_FRAMES)
+        self.obs_noise_deg = opt.number("obs_noise_deg", obs_noise_deg, 0.0)
+        self.history: collections.deque | None = None  # the last delay_frames + 1 sensed states, oldest first
+        self.noise_z: np.ndarray | None = None  # (1, 2) standard normals of the observation now (None: no noise)
         self.reseed(random)
         self.target: trajectory.Trajectory | None = None
         self.frame = 0
@@ -127,7 +134,9 @@ class Abduction(control.Task):
         self.law = None
 
     def reseed(self, seed) -> None:
-        self.rng = np.random.default_rng(opt.seed(seed))
+        seed = opt.seed(seed)
+        self.rng = np.random.default_rng(seed)
+        self.noise_rng = sensing.noise_rng(seed)
 
     # --- dm_control Task API -------------------------------------------------------------------------------------
     def action_spec(self, physics):
@@ -154,6 +163,10 @@ class Abduction(control.Task):
         if self.init == "hold":
             physics.set_activations(self.muscles,
                                     statics.holding_activation(self._law(physics), self.target.angle_deg[0])[0])
+        if self.delay_frames:
+            self.history = collections.deque([self.sense(physics)] * (self.delay_frames + 1),
+                                             maxlen=self.delay_frames + 1)
+        self.draw_noise()
 
     def _law(self, physics):
         if self.law is None:
@@ -174,11 +187,27 @@ class Abduction(control.Task):
     def after_step(self, physics):
         self.frame += 1
         physics.check_failure()
+        if self.history is not None:
+            self.history.append(self.sense(physics))
+        self.draw_noise()
+
+    def sense(self, physics) -> np.ndarray:
+        """(1, 2 + n): the true angle (deg), velocity (deg/s) and activations now."""
+        return sensing.state(physics.angle_deg(), physics.angular_velocity_deg(), physics.data.ctrl[self._ids])
+
+    def draw_noise(self) -> None:
+        """The noise of the observation of this frame: drawn once per reset and per step, whoever reads it."""
+        self.noise_z = self.noise_rng.standard_normal((1, 2)) if self.obs_noise_deg > 0 else None
 
     def get_observation(self, physics):
         k = min(self.frame + 1, len(self.target.angle_deg) - 1)
-        obs = protocol.observation(physics.angle_deg(), physics.angular_velocity_deg(), self.target.angle_deg[k],
-                                   self.target.velocity_deg_s[k], physics.data.ctrl[self._ids])
+        if self.history is not None:  # delay_frames > 0: the state of frame t - delay_frames
+            old = self.history[0].copy()  # the observation must not alias the buffer
+            angle, velocity, act = old[:, 0], old[:, 1], old[0, 2:]
+        else:
+            angle, velocity, act = physics.angle_deg(), physics.angular_velocity_deg(), physics.data.ctrl[self._ids]
+        angle, velocity = sensing.noisy(angle, velocity, self.obs_noise_deg, self.noise_z)
+        obs = protocol.observation(angle, velocity, self.target.angle_deg[k], self.target.velocity_deg_s[k], act)
         return {key: v[0] for key, v in obs.items()}
 
     def get_reward(self, physics):

@@ -54,8 +54,7 @@ class ShoulderVectorEnv(VectorEnv):
         if not self._fresh:
             self.batched.reset()
         self._fresh = False
-        raw = self.batched.observation_array()
-        return self._in_space(raw), self._infos(raw, raw[:, 0])  # episodes start on their targets
+        return self._in_space(self.batched.observation_array()), self._infos()
 
     def step(self, actions):
         b, self._fresh = self.batched, False
@@ -64,7 +63,7 @@ class ShoulderVectorEnv(VectorEnv):
         truncated = extras["time_outs"].cpu().numpy().astype(bool)
         done = terminated | truncated
         raw = b.observation_array()
-        infos = self._infos(raw, np.where(done, raw[:, 0], b.last_target_deg))
+        infos = self._infos()
         if done.any():
             final = self._in_space(b.last_final_obs[done])
             infos["final_obs"] = np.full(self.num_envs, None, dtype=object)
@@ -78,12 +77,14 @@ class ShoulderVectorEnv(VectorEnv):
     def _in_space(self, raw: np.ndarray) -> np.ndarray:
         return in_space(raw, self.single_observation_space)
 
-    def _infos(self, raw: np.ndarray, target_deg: np.ndarray) -> dict:
-        """The single env's info per copy from the (N, 4 + n) float64 observations; `crashed` is False throughout, as
-        a copy whose episode ended already stands at the start of the next (the crash is in `final_info`)."""
-        return _masked({"angle_deg": raw[:, 0].copy(), "target_deg": np.array(target_deg, dtype=np.float64),
-                        "activations": raw[:, 4:].copy(), "crashed": np.zeros(self.num_envs, dtype=bool)},
-                       np.ones(self.num_envs, dtype=bool))
+    def _infos(self) -> dict:
+        """The single env's info per copy, from the true state (not the delayed or noisy observation); `crashed` is
+        False throughout, as a copy whose episode ended already stands at the start of the next (the crash is in
+        `final_info`)."""
+        b = self.batched
+        target = b.targets[np.arange(self.num_envs), np.minimum(b.frames, b.episode_frames)]
+        return _masked({"angle_deg": np.degrees(b.q), "target_deg": target, "activations": b.act.copy(),
+                        "crashed": np.zeros(self.num_envs, dtype=bool)}, np.ones(self.num_envs, dtype=bool))
 
     def close_extras(self, **kwargs) -> None:
         self.batched.close()

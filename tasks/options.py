@@ -20,7 +20,9 @@ OPTIONS = {
     "omega_max": "a finite number >= 0",
     "tracking_only": "None (the task's default), True or False",
     "init": "'hold' or 'zero'",
-    "joint_damping": "a finite number in [0, 10] (N m s/rad on the elevation joint; default 0, the model's)",
+    "joint_damping": "a finite number in [0, 10] (N m s/rad on the elevation joint; 0 is the model's)",
+    "delay_frames": "an integer in [0, 10] (frames by which the observed angle, velocity and activations are late)",
+    "obs_noise_deg": "a finite number >= 0 (Gaussian sigma: deg on the observed angle, deg/s on its velocity)",
 }
 
 
@@ -54,6 +56,14 @@ def number(name: str, value, lo: float = 0.0, hi: float = math.inf) -> float:
         wanted = f"a finite number >= {lo:g}" if hi == math.inf else f"a finite number in [{lo:g}, {hi:g}]"
         raise ValueError(f"{name} must be {wanted}; got {plain(value)}")
     return float(value)
+
+
+def integer(name: str, value, lo: int, hi: int) -> int:
+    """`value` as an int if it is an integer (Python's or numpy's, not a bool, not a float) within [lo, hi]."""
+    ok = isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
+    if not ok or not lo <= int(value) <= hi:
+        raise ValueError(f"{name} must be an integer in [{lo}, {hi}]; got {plain(value)}")
+    return int(value)
 
 
 def flag(name: str, value, allow_none: bool = True) -> bool | None:

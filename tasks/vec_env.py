@@ -16,7 +16,7 @@ from shoulder_bench import trajectory as targets
 from shoulder_bench.arm import harden_couplings
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
 from shoulder_bench.simulator import BatchSimulator
-from shoulder_bench.tasks import TASKS, check_name
+from shoulder_bench.tasks import TASKS, check_name, sensing
 from shoulder_bench.tasks import options as options_check
 from shoulder_bench.tasks.abduction import VALID_MARGIN_DEG, Abduction
 
@@ -48,6 +48,11 @@ class VecEnv(_RslVecEnv):
                                   prepare=harden_couplings)
         self.sim.model.dof_damping[self.sim.dadr] = self.task.joint_damping
         self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
+        # what the agent senses (shoulder_bench.tasks.sensing), as the single env seeded seed + i
+        self.delay_frames, self.obs_noise_deg = self.task.delay_frames, self.task.obs_noise_deg
+        self.noise_rngs = [sensing.noise_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
+        self.obs_history = np.zeros((self.num_envs, self.delay_frames + 1, 2 + self.n))  # oldest first; k > 0 only
+        self.noise_z = np.zeros((self.num_envs, 2))  # standard normals of each copy's observation now
         split_frames = int(round(targets.SPLITS[self.task.split]["duration_s"] / protocol.FRAME_S))
         self.episode_frames = np.array([split_frames if t is None else t.frames for t in self.fixed])
         self.max_episode_length = int(self.episode_frames.max())
@@ -79,6 +84,9 @@ class VecEnv(_RslVecEnv):
             self.sim.warmstart[idx] = 0.0  # as mj_resetData
         self.act[idx] = statics.holding_activation(self.law, start) if self.task.init == "hold" else 0.0
         self.frames[idx] = 0
+        if self.delay_frames:
+            self.obs_history[idx] = self._sense()[idx][:, None, :]
+        self._draw_noise(idx)
         self._return[idx] = 0.0
         self._abs_err[idx] = 0.0
         self.episode_length_buf[torch.as_tensor(idx, device=self.device)] = 0
@@ -93,12 +101,29 @@ class VecEnv(_RslVecEnv):
         """(N,) elevation velocities (rad/s)."""
         return self.qvel[:, self.sim.dadr]
 
+    def _sense(self) -> np.ndarray:
+        """(N, 2 + n): the true angle (deg), velocity (deg/s) and activations now."""
+        return sensing.state(np.degrees(self.q), np.degrees(self.v), self.act)
+
+    def _draw_noise(self, idx) -> None:
+        """Each copy in `idx` draws the noise of its observation now from its own generator, as the single env."""
+        if self.obs_noise_deg > 0:
+            for i in idx:
+                self.noise_z[i] = self.noise_rngs[i].standard_normal((1, 2))[0]
+
     def observation_array(self) -> np.ndarray:
-        """(N, 4 + n) float64 observations in protocol.OBSERVATION_KEYS order (the TensorDict holds float32 casts)."""
+        """(N, 4 + n) float64 observations in protocol.OBSERVATION_KEYS order (the TensorDict holds float32 casts):
+        the sensed terms delay_frames late and noisy (`shoulder_bench.tasks.sensing`), the targets current."""
         k = np.minimum(self.frames + 1, self.episode_frames)
         rows = np.arange(self.num_envs)
-        obs = protocol.observation(np.degrees(self.q), np.degrees(self.v), self.targets[rows, k],
-                                   self.target_vel[rows, k], self.act)
+        if self.delay_frames:
+            old = self.obs_history[:, 0]
+            angle, velocity, act = old[:, 0], old[:, 1], old[:, 2:]
+        else:
+            angle, velocity, act = np.degrees(self.q), np.degrees(self.v), self.act
+        angle, velocity = sensing.noisy(angle, velocity, self.obs_noise_deg,
+                                        self.noise_z if self.obs_noise_deg > 0 else None)
+        obs = protocol.observation(angle, velocity, self.targets[rows, k], self.target_vel[rows, k], act)
         return np.concatenate([obs[key] for key in protocol.OBSERVATION_KEYS], axis=1)
 
     def _observation(self) -> TensorDict:
@@ -120,6 +145,9 @@ class VecEnv(_RslVecEnv):
         self.qpos, self.qvel, bad = self.sim.frame_state(self.qpos, self.qvel, self.act)
         q = self.q
         self.frames += 1
+        if self.delay_frames:
+            self.obs_history = np.concatenate([self.obs_history[:, 1:], self._sense()[:, None, :]], axis=1)
+        self._draw_noise(range(self.num_envs))
         angle = np.degrees(q)
         rows = np.arange(self.num_envs)
         lo, hi = arm_.RANGE_DEG
@@ -156,26 +184,37 @@ class VecEnv(_RslVecEnv):
 
     # --- checkpoints --------------------------------------------------------------------------------------------------
     _STATE = ("targets", "target_vel", "frames", "qpos", "qvel", "act", "_return", "_abs_err")
+    _SENSING = ("obs_history", "noise_z")  # states saved before these options existed lack them: defaults only
 
     def state_dict(self) -> dict:
         """Everything that decides the copies' future: physics state (with the constraint solver's warmstart),
-        activations, targets, episode progress and every copy's target RNG, so a restored env continues exactly as
+        activations, targets, episode progress, every copy's target RNG and, for the sensing options, the delay
+        buffer, the noise of the observation now and every copy's noise RNG, so a restored env continues exactly as
         this one would."""
         warm = None if self.sim.warmstart is None else self.sim.warmstart.copy()
         return {"num_envs": self.num_envs, "name": self.name, "rngs": [r.bit_generator.state for r in self.rngs],
                 "episode_length_buf": self.episode_length_buf.clone(), "finished": list(self._finished),
-                "warmstart": warm, **{key: getattr(self, key).copy() for key in self._STATE}}
+                "warmstart": warm, "delay_frames": self.delay_frames, "obs_noise_deg": self.obs_noise_deg,
+                "noise_rngs": [r.bit_generator.state for r in self.noise_rngs],
+                **{key: getattr(self, key).copy() for key in self._STATE + self._SENSING}}
 
     def load_state_dict(self, state: dict) -> None:
         if (state["name"], state["num_envs"]) != (self.name, self.num_envs):
             raise ValueError(f"env state of {state['num_envs']} copies of {state['name']} cannot be restored into "
                              f"{self.num_envs} copies of {self.name}")
-        for rng, saved in zip(self.rngs, state["rngs"]):
-            rng.bit_generator.state = saved
+        saved = (state.get("delay_frames", 0), state.get("obs_noise_deg", 0.0))
+        if saved != (self.delay_frames, self.obs_noise_deg):
+            raise ValueError(f"env state saved with delay_frames={saved[0]}, obs_noise_deg={saved[1]:g} cannot be "
+                             f"restored into an env with delay_frames={self.delay_frames}, "
+                             f"obs_noise_deg={self.obs_noise_deg:g}")
         missing = [k for k in self._STATE if k not in state]
         if missing:
             raise ValueError(f"env state lacks {missing}: it was saved by another version of the model")
-        for key in self._STATE:
+        for rng, saved_rng in zip(self.rngs, state["rngs"]):
+            rng.bit_generator.state = saved_rng
+        for rng, saved_rng in zip(self.noise_rngs, state.get("noise_rngs", [])):
+            rng.bit_generator.state = saved_rng
+        for key in self._STATE + tuple(k for k in self._SENSING if k in state):
             setattr(self, key, np.array(state[key], copy=True))
         if self.sim.warmstart is not None and state.get("warmstart") is not None:
             self.sim.warmstart[:] = state["warmstart"]
