@@ -49,3 +49,13 @@ def load(name: str, split: str = "train", seed=None, trajectory=None, **options)
     muscles, discrete, _ = TASKS[check_name(name)]
     return make_env(muscles, discrete=discrete, split=split, seed=seed, trajectory=trajectory, **options)
 
+
+def check_options(**options) -> dict:
+    """`options` if every name is an option and every value one it accepts (ValueError naming it otherwise), checked
+    as the tasks check them, without building a model."""
+    from shoulder_bench.tasks import options as opt
+    from shoulder_bench.tasks.abduction import Abduction
+
+    opt.check_names(options)
+    Abduction(("ssp",), **{k: v for k, v in options.items() if k not in ("seed", "trajectory", "muscle_model")})
+    return options

@@ -4,11 +4,15 @@ Used by `shoulder_bench.load` (and so gymnasium), the dm_control task and the ba
 """
 from __future__ import annotations
 
+import ast
 import difflib
 import math
 import numbers
 
 import numpy as np
+
+from shoulder_bench import protocol
+from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
 
 # the options of `shoulder_bench.load` / `gymnasium.make` / `make_vec`, with what each accepts
 OPTIONS = {
@@ -24,6 +28,35 @@ OPTIONS = {
     "delay_frames": "an integer in [0, 10] (frames by which the observed angle, velocity and activations are late)",
     "obs_noise_deg": "a finite number >= 0 (Gaussian sigma: deg on the observed angle, deg/s on its velocity)",
 }
+
+# each option's default, as `shoulder-bench tasks --options` shows it (None where the task decides)
+DEFAULTS = {"split": "train", "seed": None, "trajectory": None, "muscle_model": DEFAULT_MUSCLE_MODEL,
+            "alpha": protocol.DEFAULT_ALPHA, "omega_max": protocol.DEFAULT_OMEGA_MAX, "tracking_only": None,
+            "init": "hold", "joint_damping": 0.0, "delay_frames": 0, "obs_noise_deg": 0.0}
+
+
+# the options a command line may set with --option KEY=VALUE (split, seed, trajectory and muscle model have flags of
+# their own or are the command's to choose)
+COMMAND_LINE = ("alpha", "omega_max", "tracking_only", "init", "joint_damping", "delay_frames", "obs_noise_deg")
+
+
+def assignments(pairs, flag: str = "--option", valid=COMMAND_LINE) -> dict:
+    """{key: value} from `KEY=VALUE` strings; a value reads as a Python literal (1, 0.5, True, None), else as text
+    (init=zero). Names are checked here, values by the task (`shoulder_bench.tasks.check_options`)."""
+    out = {}
+    for text in pairs:
+        key, sep, raw = str(text).partition("=")
+        key, raw = key.strip(), raw.strip()
+        if not sep or not key:
+            raise ValueError(f"{flag} {text!r}: expected KEY=VALUE, e.g. {flag} delay_frames=1")
+        if key in OPTIONS and key not in valid:
+            raise ValueError(f"{flag} {key}: not settable here; options it takes: {', '.join(valid)}")
+        check_names([key], valid)
+        try:
+            out[key] = ast.literal_eval(raw)
+        except (ValueError, SyntaxError):
+            out[key] = raw
+    return out
 
 
 def plain(value) -> str:

@@ -10,6 +10,7 @@ import torch
 
 import shoulder_bench
 from shoulder_bench import protocol
+from shoulder_bench.cli import main
 
 TARGET = 40 + 25 * np.sin(np.linspace(0, 3, 31))  # 30 frames: episodes end and restart within a test
 OPTIONS = [{"delay_frames": 3}, {"obs_noise_deg": 0.7}, {"delay_frames": 2, "obs_noise_deg": 0.4}]
@@ -211,3 +212,43 @@ def test_a_state_saved_before_the_options_still_loads_with_defaults():
     with pytest.raises(ValueError, match="cannot be restored"):
         shoulder_bench.make_vec("abduction_ssp", 2, obs_noise_deg=0.1).load_state_dict(old)
 
+
+def test_tasks_options_lists_every_option_with_its_default(capsys):
+    from shoulder_bench.tasks.options import OPTIONS as ALL
+
+    assert main(["tasks", "--options"]) == 0
+    out = capsys.readouterr().out
+    for key in ALL:
+        assert any(line.startswith(key + " ") and "default" in line for line in out.splitlines()), key
+    assert "delay_frames   an integer in [0, 10]" in out and "default 0.0" in out
+
+
+def test_eval_takes_sensing_options(tmp_path, capsys):
+    import json
+
+    csv = tmp_path / "t.csv"
+    csv.write_text("time_s,angle_deg\n0,40\n1,50\n2,60\n3,55\n")
+    argv = ["eval", "--policy", "reference", "--trajectories", str(csv), "--json"]
+    assert main(argv) == 0
+    plain = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert main(argv + ["--option", "delay_frames=2", "--option", "obs_noise_deg=0.5"]) == 0
+    out = capsys.readouterr().out
+    late = json.loads(out.splitlines()[-1])
+    assert late["options"] == {"delay_frames": 2, "obs_noise_deg": 0.5} and "delay_frames=2" in out
+    assert late["mae_deg"] != plain["mae_deg"]
+
+
+@pytest.mark.parametrize("option,message", [("delay_frames=1.5", "delay_frames must be an integer in"),
+                                            ("obs_noise_deg=-1", "obs_noise_deg must be a finite number >= 0"),
+                                            ("dely_frames=1", "Did you mean 'delay_frames'"),
+                                            ("seed=1", "--option seed: not settable here"),
+                                            ("delay", "expected KEY=VALUE")])
+def test_eval_bad_option_is_a_one_line_error_before_any_work(monkeypatch, capsys, option, message):
+    def forbidden(*a, **k):
+        raise AssertionError("work started before the option was checked")
+
+    monkeypatch.setattr("shoulder_bench.eval.evaluate.evaluate", forbidden)
+    monkeypatch.setattr("shoulder_bench.eval.evaluate.policy_for", forbidden)
+    assert main(["eval", "--policy", "reference", "--option", option]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("shoulder-bench eval: error: ") and message in err and "\n" not in err

@@ -7,6 +7,8 @@ from pathlib import Path
 
 def add_parser(sub) -> None:
     p = sub.add_parser("tasks", help="list the tasks with a one-line description each")
+    p.add_argument("--options", action="store_true",
+                   help="list the task options instead: what each accepts and its default")
     p.set_defaults(func=_tasks)
     p = sub.add_parser("demo", help="the quick demo: train a small PPO agent, evaluate it, rank it on a leaderboard "
                                     "and render a video of it")
@@ -21,6 +23,15 @@ def add_parser(sub) -> None:
 def _tasks(args) -> int:
     from shoulder_bench.tasks import TASKS
 
+    if getattr(args, "options", False):
+        from shoulder_bench.tasks.options import DEFAULTS, OPTIONS
+
+        width = max(map(len, OPTIONS))
+        print("options of shoulder_bench.load, gymnasium.make, make_vec and gymnasium.make_vec (None: the task "
+              "decides)")
+        for name, accepts in OPTIONS.items():
+            print(f"{name:<{width}}  {accepts}; default {DEFAULTS[name]!r}")
+        return 0
     width = max(map(len, TASKS))
     for name, (_, _, text) in TASKS.items():
         print(f"{name:<{width}}  {text}")

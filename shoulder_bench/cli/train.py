@@ -30,6 +30,9 @@ def add_parser(sub) -> None:
                    help="policy.pt, a run folder, pretrained:NAME, or reference (the model-based controller)")
     p.add_argument("--task", default=None, help="default: the task the policy was trained on")
     p.add_argument("--trajectories", default="test", help="test (the fixed 100), combing, or a CSV file")
+    p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                   help="a task option for this evaluation over the policy's own, e.g. delay_frames=1 or "
+                        "obs_noise_deg=0.5 (repeatable; shoulder-bench tasks --options lists them)")
     p.add_argument("--json", action="store_true", help="one JSON object on the last line")
     p.set_defaults(func=_eval)
 
@@ -54,18 +57,22 @@ def _train(args) -> int:
 
 def _eval(args) -> int:
     from shoulder_bench.eval.evaluate import evaluate, inference_latency_ms, policy_for, trajectories_for
-    from shoulder_bench.tasks import TASKS
+    from shoulder_bench.tasks import TASKS, check_options
+    from shoulder_bench.tasks.options import assignments
 
-    trajs = trajectories_for(args.trajectories)  # a bad file fails before the policy loads
+    extra = check_options(**assignments(args.option))  # bad options and files fail before the policy loads
+    trajs = trajectories_for(args.trajectories)
     policy, meta, task = policy_for(args.policy, args.task)
-    m = evaluate(policy, task, trajs, muscle_model=meta.get("muscle_model"), options=meta.get("options"))
+    options = dict(meta.get("options") or {}) | extra
+    m = evaluate(policy, task, trajs, muscle_model=meta.get("muscle_model"), options=options)
     for i, (mae, rmse, crashed) in enumerate(zip(*m["per_trajectory"].values())):
         print(f"trajectory {i:3d}: MAE {mae:6.2f} deg  RMSE {rmse:6.2f} deg{'  CRASHED' if crashed else ''}")
     m["latency_ms"] = inference_latency_ms(policy, 4 + len(TASKS[task][0]))
-    print(f"overall on {m['n_trajectories']} trajectories ({args.trajectories}): MAE {m['mae_deg']:.2f} deg, "
+    print(f"overall on {m['n_trajectories']} trajectories ({args.trajectories}"
+          f"{''.join(f', {k}={v}' for k, v in extra.items())}): MAE {m['mae_deg']:.2f} deg, "
           f"RMSE {m['rmse_deg']:.2f} deg, crashes {m['crashes']}; inference {m['latency_ms']:.3f} ms per step "
           f"(batch 1, CPU)")
     if args.json:
-        print(json.dumps({k: v for k, v in m.items() if k != "per_trajectory"} | {"task": task,
-                                                                                  "policy": args.policy}))
+        print(json.dumps({k: v for k, v in m.items() if k != "per_trajectory"} | {"task": task, "policy": args.policy,
+                                                                                  "options": options}))
     return 0
