@@ -20,6 +20,15 @@ from shoulder_bench.tasks import TASKS, check_name, sensing
 from shoulder_bench.tasks import options as options_check
 from shoulder_bench.tasks.abduction import VALID_MARGIN_DEG, Abduction
 
+
+def batch_engine() -> str:
+    """The batched simulator's engine: "mujoco" (MuJoCo's RK4, one rollout per frame, the compiled GIL-free
+    callbacks) where `shoulder_bench.native` is available, else "numpy" (the numpy RK4 with the law outside MuJoCo)."""
+    from shoulder_bench import native  # lazily: numba loads the compiled callbacks
+
+    return "mujoco" if native.AVAILABLE else "numpy"
+
+
 MAX_ABS = 1e10  # MuJoCo's mjMAXVAL: beyond it the single env's MuJoCo would warn (a crash)
 
 
@@ -44,8 +53,9 @@ class VecEnv(_RslVecEnv):
         self.cfg = {"task": name, "muscle_model": muscle_model, **options}
         self.arm = arm_.arm()
         self.law = self.arm.load_law(muscle_model, self.muscles)
+        # MuJoCo's own RK4 with the compiled callbacks (one rollout per frame), where they are available
         self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread, path=arm_.MODEL_FILE,
-                                  prepare=harden_couplings)
+                                  prepare=harden_couplings, engine=batch_engine())
         self.sim.model.dof_damping[self.sim.dadr] = self.task.joint_damping
         self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
         # what the agent senses (shoulder_bench.tasks.sensing), as the single env seeded seed + i
