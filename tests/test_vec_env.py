@@ -15,7 +15,11 @@ def _flat(ts):
 
 @pytest.mark.parametrize("name", ["abduction_4m", "abduction_ssp_discrete"])
 def test_batched_equals_single(name):
-    n_env, seed = 3, 21
+    """Copy i of the batch = the single env seeded seed + i. Tolerance 1e-6 deg: the batch steps with MuJoCo's RK4
+    one rollout per frame, each frame starting the constraint solver from a zero warmstart (rollout cannot carry it
+    across calls), while mj_step carries it; where a constraint is active (the arm on its joint limit) the solver
+    stops at its tolerance on either path (measured: up to 8e-9 deg)."""
+    n_env, seed, tol = 3, 21, 1e-6
     venv = shoulder_bench.make_vec(name, n_env, seed=seed)
     envs = [shoulder_bench.load(name, seed=seed + i) for i in range(n_env)]
     steps = [e.reset() for e in envs]
@@ -31,11 +35,11 @@ def test_batched_equals_single(name):
         obs = venv.observation_array()
         for i, env in enumerate(envs):
             ts = env.step(a[i] if venv.num_actions > 1 or not venv.discrete else a[i, 0])
-            assert abs(ts.reward - venv.last_reward[i]) <= 1e-9
+            assert abs(ts.reward - venv.last_reward[i]) <= tol
             if ts.last():
                 ended += 1
                 ts = env.reset()
-            assert np.abs(_flat(ts) - obs[i]).max() <= 1e-9
+            assert np.abs(_flat(ts) - obs[i]).max() <= tol
     assert ended == 2 * n_env
     venv.close()
 
