@@ -15,8 +15,9 @@ PAPER_PPO4_MAE = 5.15  # deg: "the paper's accuracy" for frames-to-accuracy (PPO
 
 def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: Path | None = None,
           resume: bool = False, config: Path | None = None, muscle_model: str | None = None,
-          eval_every: int = 100_000) -> dict:
-    """Train, evaluate on the fixed test set, write the run folder; returns metrics.json's content."""
+          eval_every: int = 100_000, options: dict | None = None) -> dict:
+    """Train, evaluate on the fixed test set, write the run folder; returns metrics.json's content. options: task
+    options (delay_frames, obs_noise_deg, joint_damping, ...) the run trains and is evaluated with."""
     import shoulder_bench
     from shoulder_bench.eval.evaluate import evaluate
     from shoulder_bench.train.config import read_overrides
@@ -27,7 +28,8 @@ def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: P
     _, cls = algo_module(algo) if algo in ALGOS else (None, None)
     overrides = read_overrides(config, cls) if cls is not None else {}
     module, cfg, run_config = plan(task, algo, frames, seed, overrides, muscle_model,
-                                   source=f"config file {config}" if config else "config")
+                                   source=f"config file {config}" if config else "config", options=options)
+    options = run_config["options"]
     eval_every = count("--eval-every", eval_every)
     seed, frames, muscle_model = run_config["seed"], run_config["frames"], run_config["muscle_model"]
     if frames != run_config["frames_asked"]:
@@ -45,7 +47,7 @@ def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: P
     torch.manual_seed(seed)
     np.random.seed(seed)
     with Run(out, run_config, resume) as run:
-        venv = shoulder_bench.make_vec(task, cfg.num_envs, seed=seed * 100_000, muscle_model=muscle_model)
+        venv = shoulder_bench.make_vec(task, cfg.num_envs, seed=seed * 100_000, muscle_model=muscle_model, **options)
         run.env = venv
         if run.checkpoint is not None and "env" in run.checkpoint["state"]:
             venv.load_state_dict(run.checkpoint["state"]["env"])
@@ -54,7 +56,7 @@ def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: P
         test = load_test_set()
 
         def on_eval(policy) -> None:
-            m = evaluate(policy, task, test, muscle_model=muscle_model)
+            m = evaluate(policy, task, test, muscle_model=muscle_model, options=options)
             run.writer.add_scalar("test/mae_deg", m["mae_deg"], run.frames)
             run.writer.add_scalar("test/rmse_deg", m["rmse_deg"], run.frames)
             run.writer.add_scalar("test/crashes", m["crashes"], run.frames)
@@ -70,7 +72,7 @@ def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: P
             policy = module.train(run, venv, cfg, frames, evaluate_every, on_eval)
         finally:
             venv.close()
-        final = evaluate(policy, task, test, muscle_model=muscle_model)
+        final = evaluate(policy, task, test, muscle_model=muscle_model, options=options)
         metrics = {k: final[k] for k in ("mae_deg", "rmse_deg", "crashes", "n_trajectories")}
         metrics["per_trajectory"] = final["per_trajectory"]
         save_policy(policy, run.dir / "policy.pt",

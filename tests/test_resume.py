@@ -238,3 +238,26 @@ def test_a_checkpoint_without_the_algorithm_state_is_a_clear_error(tmp_path, cap
     assert main(["train", "--task", "abduction_ssp", "--algo", "ppo", "--frames", "256", "--out", str(out),
                  "--config", str(cfg), "--resume"]) == 2
     assert "checkpoint.pt holds no PPO state" in capsys.readouterr().err
+
+
+def test_task_options_of_a_run_are_its_identity(tmp_path, capsys):
+    """`train --option` trains and evaluates with the task option, records it (config.json, policy.pt), refuses a
+    resume that changes it, and refuses a bad value before any folder exists."""
+    from shoulder_bench.train.policy import load_policy
+
+    cfg = _file(tmp_path, PPO)
+    out = tmp_path / "run"
+    m = train("abduction_ssp", "ppo", frames=128, out=out, config=cfg, eval_every=10**9,
+              options={"delay_frames": 1})
+    recorded = json.loads((out / "config.json").read_text())
+    assert recorded["options"] == {"delay_frames": 1} and m["frames"] == 128
+    assert load_policy(str(out / "policy.pt"))[1]["options"] == {"delay_frames": 1}
+    with pytest.raises(ValueError, match="options"):
+        train("abduction_ssp", "ppo", frames=128, out=out, config=cfg, resume=True, options={"delay_frames": 2})
+    bad = tmp_path / "bad"
+    assert main(["train", "--task", "abduction_ssp", "--algo", "ppo", "--frames", "128", "--out", str(bad),
+                 "--option", "delay_frames=99"]) == 2
+    assert "delay_frames" in capsys.readouterr().err and not bad.exists()
+    assert main(["train", "--task", "abduction_ssp", "--algo", "ppo", "--frames", "128", "--out", str(bad),
+                 "--option", "muscle_model=hill"]) == 2
+    assert not bad.exists()

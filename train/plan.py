@@ -43,8 +43,9 @@ def count(name: str, value, low: int = 1) -> int:
 
 
 def plan(task: str, algo: str, frames: int | None = None, seed: int = 0, overrides: dict | None = None,
-         muscle_model: str | None = None, source: str = "config"):
+         muscle_model: str | None = None, source: str = "config", options: dict | None = None):
     """Check everything that defines a run, before any work: (algorithm module, its config, the run's config.json).
+    options: task options of the run (`shoulder-bench tasks --options`; part of its identity), checked here.
 
     The budget is rounded up to whole iterations (PPO: num_envs x steps_per_env frames; DQN/BDQ: num_envs)."""
     from shoulder_bench.arm import MODEL_VERSION
@@ -60,6 +61,14 @@ def plan(task: str, algo: str, frames: int | None = None, seed: int = 0, overrid
     muscle_model = muscle_model or DEFAULT_MUSCLE_MODEL
     if muscle_model not in MUSCLE_MODELS:
         raise ValueError(f"unknown muscle model {muscle_model!r}; choose one of {', '.join(MUSCLE_MODELS)}")
+    from shoulder_bench.tasks import check_options
+    from shoulder_bench.tasks.options import COMMAND_LINE
+
+    options = dict(options or {})
+    not_here = [k for k in options if k not in COMMAND_LINE]
+    if not_here:
+        raise ValueError(f"task option(s) {not_here} cannot be set for a run; it takes {', '.join(COMMAND_LINE)}")
+    check_options(**options)
     module, cls = algo_module(algo)
     overrides = dict(overrides or {})
     if algo == "ppo":
@@ -74,7 +83,8 @@ def plan(task: str, algo: str, frames: int | None = None, seed: int = 0, overrid
     if algo != "ppo":
         cfg = dataclasses.replace(cfg, seed=seed, frames=budget)
     config = {"task": task, "algo": algo, "seed": seed, "frames": budget, "frames_asked": asked,
-              "frames_per_iteration": per, "muscle_model": muscle_model, "options": {},
+              "frames_per_iteration": per, "muscle_model": muscle_model,
+              "options": dict(sorted(options.items())),
               "model_version": MODEL_VERSION, "config": dataclasses.asdict(cfg)}
     return module, cfg, config
 

@@ -24,6 +24,9 @@ def add_parser(sub) -> None:
     p.add_argument("--config", type=Path, default=None, help="JSON file overriding the algorithm's config fields")
     p.add_argument("--muscle-model", default=None, help="fem or hill (default: the package default)")
     p.add_argument("--eval-every", type=int, default=100_000, help="frames between test-set evaluations")
+    p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                   help="a task option the run trains and is evaluated with, e.g. delay_frames=1 (repeatable; part "
+                        "of the run's identity; shoulder-bench tasks --options lists them)")
     p.set_defaults(func=_train)
     p = sub.add_parser("eval", help="evaluate a policy on the test set or a trajectory CSV")
     p.add_argument("--policy", required=True,
@@ -39,10 +42,12 @@ def add_parser(sub) -> None:
 
 def _train(args) -> int:
     from shoulder_bench.eval import experiment
+    from shoulder_bench.tasks.options import assignments
 
+    options = assignments(args.option)  # names here, values in plan(), both before any work
     try:
         m = experiment.train(args.task, args.algo, args.frames, args.seed, args.out, args.resume, args.config,
-                  args.muscle_model, args.eval_every)
+                             args.muscle_model, args.eval_every, options=options)
     except KeyboardInterrupt:
         out = args.out or Path("runs") / args.task / args.algo / str(args.seed)
         kept = (Path(out) / "checkpoint.pt").exists()
