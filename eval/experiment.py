@@ -3,6 +3,7 @@ frames and at the end, and write the run folder (config.json, metrics.json, poli
 eval/ because scoring is evaluation: train/ never imports eval/."""
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +12,29 @@ import torch
 from shoulder_bench.train.plan import ALGOS, algo_module, count, finished_metrics, plan
 
 PAPER_PPO4_MAE = 5.15  # deg: "the paper's accuracy" for frames-to-accuracy (PPO-4, their model)
+ACCURACY_DEG = (2.0, 1.0, 0.5)  # test MAE thresholds: frames and training wall time to the first evaluation at or below
+
+
+def note_accuracy(run, mae_deg: float, training_s: float) -> None:
+    """Record, for each threshold not reached before, the frames and training wall time (evaluations excluded) of
+    this evaluation if its test MAE is at or below it; TensorBoard test/wall_s_to_<X>deg and test/frames_to_<X>deg."""
+    for deg in ACCURACY_DEG:
+        key = str(float(deg))
+        if run.to_accuracy.get(key) is None and mae_deg <= deg:
+            run.to_accuracy[key] = {"frames": run.frames, "wall_s": round(training_s, 3)}
+            run.writer.add_scalar(f"test/wall_s_to_{deg:g}deg", training_s, run.frames)
+            run.writer.add_scalar(f"test/frames_to_{deg:g}deg", run.frames, run.frames)
+        run.to_accuracy.setdefault(key, None)
+
+
+def timed_evaluate(run, *args, **kwargs) -> tuple[dict, float]:
+    """`evaluate(...)`, its wall time added to run.eval_s; also the training wall time before it."""
+    from shoulder_bench.eval.evaluate import evaluate
+
+    training_s, t = run.training_s(), time.perf_counter()
+    m = evaluate(*args, **kwargs)
+    run.eval_s += time.perf_counter() - t
+    return m, training_s
 
 
 def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: Path | None = None,
@@ -19,7 +43,6 @@ def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: P
     """Train, evaluate on the fixed test set, write the run folder; returns metrics.json's content. options: task
     options (delay_frames, obs_noise_deg, joint_damping, ...) the run trains and is evaluated with."""
     import shoulder_bench
-    from shoulder_bench.eval.evaluate import evaluate
     from shoulder_bench.train.config import read_overrides
     from shoulder_bench.train.policy import save_policy
     from shoulder_bench.train.run import Run
@@ -56,13 +79,14 @@ def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: P
         test = load_test_set()
 
         def on_eval(policy) -> None:
-            m = evaluate(policy, task, test, muscle_model=muscle_model, options=options)
+            m, training_s = timed_evaluate(run, policy, task, test, muscle_model=muscle_model, options=options)
             run.writer.add_scalar("test/mae_deg", m["mae_deg"], run.frames)
             run.writer.add_scalar("test/rmse_deg", m["rmse_deg"], run.frames)
             run.writer.add_scalar("test/crashes", m["crashes"], run.frames)
             if run.paper_frames is None and m["mae_deg"] <= PAPER_PPO4_MAE:
                 run.paper_frames = run.frames
                 run.writer.add_scalar("test/wall_s_to_paper_accuracy", run.elapsed(), run.frames)
+            note_accuracy(run, m["mae_deg"], training_s)
 
         def evaluate_every(now: int) -> int:
             return (now // eval_every + 1) * eval_every
@@ -72,7 +96,8 @@ def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: P
             policy = module.train(run, venv, cfg, frames, evaluate_every, on_eval)
         finally:
             venv.close()
-        final = evaluate(policy, task, test, muscle_model=muscle_model, options=options)
+        final, training_s = timed_evaluate(run, policy, task, test, muscle_model=muscle_model, options=options)
+        note_accuracy(run, final["mae_deg"], training_s)  # the final evaluation counts too
         metrics = {k: final[k] for k in ("mae_deg", "rmse_deg", "crashes", "n_trajectories")}
         metrics["per_trajectory"] = final["per_trajectory"]
         save_policy(policy, run.dir / "policy.pt",

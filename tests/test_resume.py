@@ -66,6 +66,8 @@ def test_killed_and_resumed_run_equals_the_uninterrupted_one(tmp_path, task, alg
     steps_b, mae_b = scalars(killed, "test/mae_deg")
     assert steps_a == steps_b and len(steps_a) >= 2  # no duplicate or missing evaluation points
     np.testing.assert_allclose(mae_b, mae_a, rtol=1e-6)
+    assert ({k: r and r["frames"] for k, r in b["to_accuracy"].items()}
+            == {k: r and r["frames"] for k, r in a["to_accuracy"].items()})  # wall times differ, frames may not
 
 
 def test_resume_refuses_a_change_of_what_defines_the_run(tmp_path):
@@ -261,3 +263,23 @@ def test_task_options_of_a_run_are_its_identity(tmp_path, capsys):
     assert main(["train", "--task", "abduction_ssp", "--algo", "ppo", "--frames", "128", "--out", str(bad),
                  "--option", "muscle_model=hill"]) == 2
     assert not bad.exists()
+
+
+def test_accuracy_reached_before_a_kill_survives_the_resume(tmp_path, monkeypatch):
+    """Thresholds reached before the last checkpoint keep their frames and wall time across a resume (as
+    frames_to_paper_accuracy does); the evaluation wall time carries on from the checkpoint's."""
+    from shoulder_bench.eval import experiment
+
+    monkeypatch.setattr(experiment, "ACCURACY_DEG", (1000.0, 1e-6))
+    cfg = _file(tmp_path, PPO)
+    out = tmp_path / "run"
+    first = train("abduction_ssp", "ppo", frames=512, out=out, config=cfg, eval_every=128)
+    assert first["to_accuracy"]["1000.0"]["frames"] == 128 and first["to_accuracy"]["1e-06"] is None
+    (out / "metrics.json").unlink()  # as if killed after its last checkpoint (512 frames)
+    ckpt = torch.load(out / "checkpoint.pt", weights_only=False)
+    assert ckpt["to_accuracy"]["1000.0"] == first["to_accuracy"]["1000.0"] and ckpt["eval_s"] > 0
+    again = train("abduction_ssp", "ppo", frames=768, out=out, config=cfg, resume=True, eval_every=128)
+    assert again["to_accuracy"]["1000.0"] == first["to_accuracy"]["1000.0"]  # not re-recorded at 640
+    assert again["to_accuracy"]["1e-06"] is None and again["eval_s"] > ckpt["eval_s"]
+    steps, _ = scalars(out, "test/wall_s_to_1000deg")
+    assert steps == [128]

@@ -123,3 +123,26 @@ def test_ppo_error_features_and_reward_scale_export_a_policy_on_raw_observations
           eval_every=10**9)
     policy, _ = load_policy(str(out))
     assert policy(torch.zeros(2, 5)).shape == (2, 1)  # the task's 5 observations; the features are inside
+
+
+def test_wall_time_to_accuracy_is_recorded_logged_and_printed(tmp_path, monkeypatch, capsys):
+    """The first evaluation at or below each threshold gives frames and training wall time (evaluations excluded);
+    a threshold never reached is null. 1000 deg is reached at the first evaluation, 1e-6 deg never, and 512 frames
+    are far from 2 deg."""
+    from shoulder_bench.eval import experiment
+    from shoulder_bench.eval.plots import scalars
+
+    monkeypatch.setattr(experiment, "ACCURACY_DEG", (1000.0, 2.0, 1e-6))
+    out = tmp_path / "run"
+    assert main(["train", "--task", "abduction_4m", "--algo", "ppo", "--frames", "512", "--out", str(out),
+                 "--config", str(_config(tmp_path)), "--eval-every", "256"]) == 0
+    m = json.loads((out / "metrics.json").read_text())
+    reached = m["to_accuracy"]["1000.0"]
+    assert reached["frames"] == 256 and m["to_accuracy"]["2.0"] is None and m["to_accuracy"]["1e-06"] is None
+    assert 0 < m["eval_s"] < m["wall_s"] and 0 < reached["wall_s"] <= m["wall_s"] - m["eval_s"]
+    assert scalars(out, "test/wall_s_to_1000deg") == ([256], [pytest.approx(reached["wall_s"], abs=1e-3)])
+    assert scalars(out, "test/frames_to_1000deg")[1] == [256]
+    assert scalars(out, "test/wall_s_to_2deg")[0] == []
+    printed = capsys.readouterr().out.splitlines()[-1]
+    assert "evaluations excluded" in printed and f"1000 deg {reached['wall_s']:.1f} s (256 frames)" in printed
+    assert "2 deg not reached" in printed and "1e-06 deg not reached" in printed

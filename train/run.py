@@ -7,6 +7,11 @@ only the frame budget may grow. One process writes a folder at a time: `Run` hol
 (released by the OS when the process ends, so a crashed run leaves no stale lock). A run that fails or is interrupted
 before its first checkpoint leaves nothing behind; after it, the checkpoint stays for `--resume`, and the TensorBoard
 events logged past the checkpoint are dropped when the run resumes.
+
+Wall time: `elapsed()` is the run's wall clock since it started, summed over its attempts (a resume continues from
+the checkpoint's count; the time between the kill and the resume, and each process's start-up before the folder is
+opened, are not counted); it includes the test-set evaluations. `eval_s` is the part spent evaluating (added by the
+caller) and `training_s()` the rest, the training wall time. Both survive a kill/resume as the checkpoint's.
 """
 from __future__ import annotations
 
@@ -144,6 +149,9 @@ class Run:
         self.frames = int(ckpt.get("frames", 0))
         self.wall = float(ckpt.get("wall_s", 0.0))
         self.paper_frames = ckpt.get("frames_to_paper_accuracy")
+        self.eval_s = float(ckpt.get("eval_s", 0.0))  # wall time spent in test-set evaluations
+        # first evaluation at or below each accuracy threshold: {"2.0": {"frames", "wall_s"} or None, ...}
+        self.to_accuracy = dict(ckpt.get("to_accuracy") or {})
         # events logged after the checkpoint (steps > its frame count) belong to the lost attempt: purge them
         self.writer = SummaryWriter(str(self.dir / "tb"), purge_step=self.frames + 1 if self.frames else None)
         self._t0 = time.perf_counter() - self.wall
@@ -184,13 +192,19 @@ class Run:
         if self.env is not None:
             state = {**state, "env": self.env.state_dict()}
         torch.save({"frames": self.frames, "config": self.config, "state": state, "wall_s": self.elapsed(),
-                    "frames_to_paper_accuracy": self.paper_frames, "returns": list(self.returns),
+                    "frames_to_paper_accuracy": self.paper_frames, "eval_s": self.eval_s,
+                    "to_accuracy": self.to_accuracy, "returns": list(self.returns),
                     "np_rng": np.random.get_state()}, tmp)
         os.replace(tmp, path)
         self.saved = True
 
     def elapsed(self) -> float:
+        """Wall seconds of the run so far, evaluations included (see the module's docstring)."""
         return time.perf_counter() - self._t0
+
+    def training_s(self) -> float:
+        """Wall seconds of the run so far less those spent in test-set evaluations (`eval_s`)."""
+        return self.elapsed() - self.eval_s
 
     def start_progress(self, total: int) -> None:
         self.bar = tqdm(total=total, initial=self.frames, unit="frame", unit_scale=True, dynamic_ncols=True,
@@ -212,6 +226,7 @@ class Run:
 
     def finish(self, metrics: dict) -> dict:
         metrics = {**metrics, "frames": self.frames, "wall_s": round(self.elapsed(), 2),
-                   "frames_to_paper_accuracy": self.paper_frames}
+                   "eval_s": round(self.eval_s, 2), "frames_to_paper_accuracy": self.paper_frames,
+                   "to_accuracy": self.to_accuracy}
         write_json(self.dir / "metrics.json", metrics)
         return metrics

@@ -57,6 +57,11 @@ def _train(args) -> int:
         return 130
     print(f"test set: MAE {m['mae_deg']:.2f} deg, RMSE {m['rmse_deg']:.2f} deg, crashes {m['crashes']}/"
           f"{m['n_trajectories']}; {m['frames']:,} frames in {m['wall_s']:.0f} s")
+    reached = [f"{float(deg):g} deg " + (f"{r['wall_s']:.1f} s ({r['frames']:,} frames)" if r else "not reached")
+               for deg, r in (m.get("to_accuracy") or {}).items()]
+    if reached:  # runs finished before these were recorded have none
+        print(f"training wall time (evaluations excluded, {m.get('eval_s', 0):.0f} s of them) to test MAE <= "
+              + "; ".join(reached))
     return 0
 
 
@@ -67,7 +72,7 @@ def _eval(args) -> int:
 
     extra = check_options(**assignments(args.option))  # bad options and files fail before the policy loads
     trajs = trajectories_for(args.trajectories)
-    policy, meta, task = policy_for(args.policy, args.task)
+    policy, meta, task = policy_for(args.policy, args.task, options=extra)
     options = dict(meta.get("options") or {}) | extra
     m = evaluate(policy, task, trajs, muscle_model=meta.get("muscle_model"), options=options)
     for i, (mae, rmse, crashed) in enumerate(zip(*m["per_trajectory"].values())):
