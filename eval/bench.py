@@ -1,6 +1,8 @@
 """`shoulder-bench bench`: throughput measured side by side in one run (the machines are shared and noisy).
 
-- batched: `make_vec("abduction_4m", N)` frames/s (a frame = 0.1 s simulated) with random actions and auto-resets;
+- batched: `make_vec("abduction_4m", N)` frames/s (a frame = 0.1 s simulated) with random actions and auto-resets,
+  over a window of one training episode (100 frames), so that every copy ends its episode and is reset once inside
+  it (the resets are counted and printed);
 - bare MuJoCo: the same compiled model with fixed-gain actuators and no callback, stepped by `mujoco.rollout` with the
   same physics step, integrator and threads; the ratio batched / bare;
 - the single gymnasium env in simulated seconds per wall second;
@@ -21,15 +23,18 @@ from mujoco import rollout
 TASK = "abduction_4m"
 
 
-def batched_rate(venv, frames: int, gen: torch.Generator) -> float:
+def batched_rate(venv, frames: int, gen: torch.Generator) -> tuple[float, int]:
+    """Frames/s of the batched env over `frames` frames, and how many episodes ended (auto-reset) inside them."""
     check_counts(frames=frames)
     n = venv.num_envs
     for _ in range(2):
         venv.step(torch.rand(n, venv.num_actions, generator=gen) * 0.02 - 0.01)
+    resets = 0
     t = time.perf_counter()
     for _ in range(frames):
-        venv.step(torch.rand(n, venv.num_actions, generator=gen) * 0.02 - 0.01)
-    return n * frames / (time.perf_counter() - t)
+        _, _, dones, _ = venv.step(torch.rand(n, venv.num_actions, generator=gen) * 0.02 - 0.01)
+        resets += int(dones.sum())
+    return n * frames / (time.perf_counter() - t), resets
 
 
 def bare_rate(n: int, frames: int, nthread: int = 2) -> tuple[float, float]:
@@ -89,26 +94,33 @@ def run(args) -> int:
 
     check_counts("--", repeats=args.repeats)
     torch.set_num_threads(2)
-    sizes, frames = ((16, 64), 5) if args.quick else ((64, 256, 1024), 20)
+    sizes = (16, 64) if args.quick else (64, 256, 1024, 4096)
     repeats = 1 if args.quick else args.repeats
     gen = torch.Generator().manual_seed(0)
     rows = []
     for n in sizes:
         venv = shoulder_bench.make_vec(TASK, n, seed=0)
-        ours, bare = [], []
+        frames = venv.max_episode_length  # one training episode: every copy is reset once in the window
+        ours, bare, resets = [], [], []
         for _ in range(repeats):
-            ours.append(batched_rate(venv, frames, gen))
+            fps, r = batched_rate(venv, frames, gen)
+            ours.append(fps)
+            resets.append(r)
             b, step = bare_rate(n, frames)
             bare.append(b)
         venv.close()
         rows.append({"num_envs": n, "batched_fps": max(ours), "bare_fps": max(bare),
-                     "ratio": max(ours) / max(bare), "physics_step_s": step})
+                     "ratio": max(ours) / max(bare), "physics_step_s": step, "window_frames": frames,
+                     "resets": min(resets)})
     sim_rate = max(gym_rate(0.5 if args.quick else 3.0) for _ in range(repeats))
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"task {TASK}, physics step {rows[0]['physics_step_s'] * 1000:g} ms (RK4), 2 threads, best of {repeats}")
-    print(f"{'N':>6} {'batched frames/s':>17} {'bare MuJoCo frames/s':>21} {'ratio':>6}")
+    print(f"window: {rows[0]['window_frames']} frames (one training episode) each, after 2 warm-up frames, so every "
+          f"copy's episode ends and it is auto-reset once inside it (resets: fewest in a repeat)")
+    print(f"{'N':>6} {'batched frames/s':>17} {'bare MuJoCo frames/s':>21} {'ratio':>6} {'resets':>7}")
     for r in rows:
-        print(f"{r['num_envs']:>6} {r['batched_fps']:>17,.0f} {r['bare_fps']:>21,.0f} {r['ratio']:>6.2f}")
+        print(f"{r['num_envs']:>6} {r['batched_fps']:>17,.0f} {r['bare_fps']:>21,.0f} {r['ratio']:>6.2f} "
+              f"{r['resets']:>7,}")
     print(f"single gymnasium env: {sim_rate:,.0f} simulated s per wall s")
     print(f"peak memory: {peak_mb:,.0f} MB")
     if args.json:
