@@ -86,16 +86,21 @@ def check_policy_file(spec: str) -> Path:
     return path
 
 
-def policy_for(spec: str, task: str | None = None) -> tuple[object, dict, str]:
+CONDITION_OPTIONS = ("condition", "tear_fraction", "weakness_fraction")  # what the reference controller plans with
+
+
+def policy_for(spec: str, task: str | None = None, options: dict | None = None) -> tuple[object, dict, str]:
     """(policy, metadata, task) for a policy file, run folder, `pretrained:NAME` or `reference` (the model-based
-    controller, on `task`, default abduction_4m). A trained policy runs on the task it was trained on."""
+    controller, on `task`, default abduction_4m, planning with the shoulder condition of the task `options`, if any).
+    A trained policy runs on the task it was trained on."""
     from shoulder_bench.tasks import check_name
 
     if spec == "reference":
         from shoulder_bench.eval.reference import ReferenceController
 
         task = check_name(task or "abduction_4m")
-        return ReferenceController(task), {"task": task, "algo": "reference"}, task
+        cond = {k: v for k, v in (options or {}).items() if k in CONDITION_OPTIONS}
+        return ReferenceController(task, **cond), {"task": task, "algo": "reference"}, task
     from shoulder_bench.train.policy import load_policy
 
     check_policy_file(spec)

@@ -25,12 +25,14 @@ class ReferenceController:
     """policy(obs (B, 4 + n) float32 tensor) -> changes of activation (B, n), for `evaluate`."""
 
     def __init__(self, task: str, muscle_model: str = DEFAULT_MUSCLE_MODEL, kp: float = 60.0, kv: float = 14.0,
-                 joint_damping: float | None = None):
+                 joint_damping: float | None = None, condition: str | None = None, **fractions):
+        """condition, fractions (tear_fraction, weakness_fraction): the task options' shoulder condition
+        (`shoulder_bench.conditions`): the controller plans with the same conditioned law the task simulates."""
         muscles, discrete, _ = TASKS[check_name(task)]
         if discrete:
             raise ValueError(f"the reference controller acts continuously; use {task.replace('_discrete', '')}")
         self.arm = arm()
-        self.law = self.arm.load_law(muscle_model, muscles)
+        self.law = self.arm.load_law(muscle_model, muscles, condition, **fractions)
         # reduced along the coupling (linear couplings: constant); joint_damping: the task option's, if set
         self.damping = self.arm.damping() if joint_damping is None else float(joint_damping)
         self.kp, self.kv = kp, kv

@@ -177,13 +177,18 @@ class Arm(LockedPath):
         names = tuple(a for v in ACTUATORS.values() for a in v)
         return dict(zip(names, self.tendon_geometry(angle_deg, names)[1].T))
 
-    def load_law(self, muscle_model: str, muscles=tuple(ACTUATORS)):
-        """The tasks' force law of `muscles` (v2 tables, `TABLE_FOLDER`), one activation per muscle."""
+    def load_law(self, muscle_model: str, muscles=tuple(ACTUATORS), condition: str | None = None, **fractions):
+        """The tasks' force law of `muscles` (v2 tables, `TABLE_FOLDER`), one activation per muscle; `condition`
+        (`shoulder_bench.conditions`, with its fractions tear_fraction, weakness_fraction) scales or removes muscles
+        in a new law (a bad or needed-muscle-removing condition raises ValueError before any table is read)."""
+        from shoulder_bench.conditions import factors
         from shoulder_bench.muscle import ForceLaw
 
         acts = actuators_of(muscles)
+        scale = factors(condition, tuple(m for m in ACTUATORS if m in muscles), **fractions)
         groups = {m: ACTUATORS[m] for m in ACTUATORS if m in muscles}
-        return ForceLaw.load(muscle_model, muscles=acts, folder=TABLE_FOLDER, arms=self.moment_arms, groups=groups)
+        law = ForceLaw.load(muscle_model, muscles=acts, folder=TABLE_FOLDER, arms=self.moment_arms, groups=groups)
+        return law.scaled(scale) if scale else law
 
 
 _ARM: list[Arm] = []

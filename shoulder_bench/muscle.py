@@ -21,7 +21,9 @@ vmax = 10 optimal fibre lengths per second (shortening lowers force to zero at v
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -200,6 +202,22 @@ class ForceLaw:
                 raise ValueError(f"no model moment arm given for {m!r} (arms has {sorted(arms)})")
             t.check_against_model(np.asarray(arms[m], dtype=float), p)
         return cls(tables, groups)
+
+    def scaled(self, factors: dict[str, float]) -> ForceLaw:
+        """A new law with each muscle's tables (all of a group's: ld1-3 for ld) scaled by `factors[muscle]`: the
+        whole tabled force (active and passive) and torque; moment arms and force-velocity unchanged. This law is
+        not changed. Factors: finite numbers >= 0 (0 removes the muscle); muscles not named keep factor 1."""
+        unknown = [m for m in factors if m not in self.groups]
+        if unknown:
+            raise ValueError(f"cannot scale muscle(s) {unknown}: the law has {self.muscles}")
+        bad = {m: f for m, f in factors.items() if not (math.isfinite(float(f)) and float(f) >= 0.0)}
+        if bad:
+            raise ValueError(f"muscle force factors must be finite numbers >= 0; got {bad}")
+        per_table = {a: float(f) for m, f in factors.items() for a in self.groups[m]}
+        tables = [t if per_table.get(t.muscle, 1.0) == 1.0 else dataclasses.replace(
+            t, force_N=t.force_N * per_table[t.muscle], torque_Nm=t.torque_Nm * per_table[t.muscle],
+            meta={**t.meta, "force_factor": per_table[t.muscle]}) for t in self.tables]
+        return ForceLaw(tables, self.groups)
 
     def _evaluate_all(self, angle, velocity, activation) -> np.ndarray:
         """(5, B, n): active force, active per unit activation, passive force, force-velocity factor, gain."""

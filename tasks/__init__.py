@@ -39,7 +39,8 @@ def load(name: str, split: str = "train", seed=None, trajectory=None, **options)
     split: "train" (10 s targets in [30, 90] deg) or "test" (20 s, [20, 100] deg); seed: the episode draws;
     trajectory: a CSV path, an array of degrees at 0.1 s, or a `Trajectory` to track instead of random targets;
     options: muscle_model ("fem"/"hill"), alpha, omega_max, tracking_only, init ("hold"/"zero"), joint_damping,
-    delay_frames, obs_noise_deg (`shoulder_bench.tasks.sensing`). A bad option raises
+    delay_frames, obs_noise_deg (`shoulder_bench.tasks.sensing`), condition (None: intact; ssp_tear, ... composed
+    with '+', `shoulder_bench.conditions`) with tear_fraction, weakness_fraction. A bad option raises
     ValueError naming it and what it accepts (`shoulder_bench.tasks.options.OPTIONS`).
     """
     from shoulder_bench.tasks import options as opt
@@ -50,12 +51,14 @@ def load(name: str, split: str = "train", seed=None, trajectory=None, **options)
     return make_env(muscles, discrete=discrete, split=split, seed=seed, trajectory=trajectory, **options)
 
 
-def check_options(**options) -> dict:
+def check_options(task: str | None = None, /, **options) -> dict:
     """`options` if every name is an option and every value one it accepts (ValueError naming it otherwise), checked
-    as the tasks check them, without building a model."""
+    as the tasks check them, without building a model; for `task`'s muscles if given (a condition may not remove all
+    of them), else for all four."""
     from shoulder_bench.tasks import options as opt
     from shoulder_bench.tasks.abduction import Abduction
 
     opt.check_names(options)
-    Abduction(("ssp",), **{k: v for k, v in options.items() if k not in ("seed", "trajectory", "muscle_model")})
+    muscles = MUSCLES if task is None else TASKS[check_name(task)][0]
+    Abduction(muscles, **{k: v for k, v in options.items() if k not in ("seed", "trajectory", "muscle_model")})
     return options

@@ -18,7 +18,7 @@ from dm_control.rl.control import PhysicsError
 from dm_env import specs
 
 from shoulder_bench import arm as arm_
-from shoulder_bench import protocol, statics, trajectory
+from shoulder_bench import conditions, protocol, statics, trajectory
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL, attach_law, install_callbacks, law_of
 from shoulder_bench.tasks import options as opt
 from shoulder_bench.tasks import sensing
@@ -93,9 +93,11 @@ class Physics(_Physics):
         return self._failed
 
 
-def make_physics(muscles, muscle_model: str) -> Physics:
+def make_physics(muscles, muscle_model: str, condition: dict | None = None) -> Physics:
+    """The physics of `muscles` with the law of `muscle_model`; condition: `Abduction.condition` (the condition and
+    its fractions, `shoulder_bench.conditions`), default the intact shoulder."""
     the_arm = arm_.arm()
-    law = the_arm.load_law(muscle_model, muscles)  # checks muscle_model before the (slower) compile
+    law = the_arm.load_law(muscle_model, muscles, **(condition or {}))  # checked before the (slower) compile
     model = arm_.compile_arm()
     attach_law(model, law)
     install_callbacks()
@@ -108,7 +110,8 @@ class Abduction(control.Task):
 
     def __init__(self, muscles, discrete=False, split="train", trajectory_=None, tracking_only=None,
                  alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", joint_damping=0.0,
-                 delay_frames=0, obs_noise_deg=0.0, random=None, **unknown):
+                 delay_frames=0, obs_noise_deg=0.0, condition=None, tear_fraction=None, weakness_fraction=None,
+                 random=None, **unknown):
         super().__init__()
         opt.check_names(unknown)
         self.muscles = tuple(muscles)
@@ -125,6 +128,10 @@ class Abduction(control.Task):
         # what the agent senses (shoulder_bench.tasks.sensing): k frames late, with Gaussian noise
         self.delay_frames = opt.integer("delay_frames", delay_frames, 0, sensing.MAX_DELAY_FRAMES)
         self.obs_noise_deg = opt.number("obs_noise_deg", obs_noise_deg, 0.0)
+        # the shoulder's condition (shoulder_bench.conditions): checked here, applied to the law by make_physics
+        conditions.factors(condition, self.muscles, tear_fraction, weakness_fraction)
+        self.condition = {k: v for k, v in (("condition", condition), ("tear_fraction", tear_fraction),
+                                            ("weakness_fraction", weakness_fraction)) if v is not None}
         self.history: collections.deque | None = None  # the last delay_frames + 1 sensed states, oldest first
         self.noise_z: np.ndarray | None = None  # (1, 2) standard normals of the observation now (None: no noise)
         self.reseed(random)
@@ -234,6 +241,6 @@ def make_env(muscles, discrete=False, split="train", seed=None, trajectory=None,
     the model is built."""
     target = as_trajectory(trajectory)
     task = Abduction(muscles, discrete=discrete, split=split, trajectory_=target, random=seed, **options)
-    physics = make_physics(tuple(muscles), muscle_model)
+    physics = make_physics(tuple(muscles), muscle_model, task.condition)
     physics.model.dof_damping[physics._adr()[1]] = task.joint_damping
     return control.Environment(physics, task, time_limit=float("inf"), control_timestep=protocol.FRAME_S)

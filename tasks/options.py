@@ -27,17 +27,24 @@ OPTIONS = {
     "joint_damping": "a finite number in [0, 10] (N m s/rad on the elevation joint; 0 is the model's)",
     "delay_frames": "an integer in [0, 10] (frames by which the observed angle, velocity and activations are late)",
     "obs_noise_deg": "a finite number >= 0 (Gaussian sigma: deg on the observed angle, deg/s on its velocity)",
+    "condition": "None (intact) or a condition of shoulder_bench.conditions (ssp_tear, ssp_partial_tear, "
+                 "posterosuperior_tear, deltoid_weakness; compose with '+'); docs/surgery.md",
+    "tear_fraction": "None (0.5) or a number in (0, 1): ssp_partial_tear's fraction of supraspinatus strength lost",
+    "weakness_fraction": "None (0.5) or a number in (0, 1): deltoid_weakness's fraction of middle-deltoid strength "
+                         "lost",
 }
 
 # each option's default, as `shoulder-bench tasks --options` shows it (None where the task decides)
 DEFAULTS = {"split": "train", "seed": None, "trajectory": None, "muscle_model": DEFAULT_MUSCLE_MODEL,
             "alpha": protocol.DEFAULT_ALPHA, "omega_max": protocol.DEFAULT_OMEGA_MAX, "tracking_only": None,
-            "init": "hold", "joint_damping": 0.0, "delay_frames": 0, "obs_noise_deg": 0.0}
+            "init": "hold", "joint_damping": 0.0, "delay_frames": 0, "obs_noise_deg": 0.0, "condition": None,
+            "tear_fraction": None, "weakness_fraction": None}
 
 
 # the options a command line may set with --option KEY=VALUE (split, seed, trajectory and muscle model have flags of
 # their own or are the command's to choose)
-COMMAND_LINE = ("alpha", "omega_max", "tracking_only", "init", "joint_damping", "delay_frames", "obs_noise_deg")
+COMMAND_LINE = ("alpha", "omega_max", "tracking_only", "init", "joint_damping", "delay_frames", "obs_noise_deg",
+                "condition", "tear_fraction", "weakness_fraction")
 
 
 def assignments(pairs, flag: str = "--option", valid=COMMAND_LINE) -> dict:

@@ -52,7 +52,7 @@ class VecEnv(_RslVecEnv):
         self.num_actions = self.n
         self.cfg = {"task": name, "muscle_model": muscle_model, **options}
         self.arm = arm_.arm()
-        self.law = self.arm.load_law(muscle_model, self.muscles)
+        self.law = self.arm.load_law(muscle_model, self.muscles, **self.task.condition)  # the task's condition
         # MuJoCo's own RK4 with the compiled callbacks (one rollout per frame), where they are available
         self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread, path=arm_.MODEL_FILE,
                                   prepare=harden_couplings, engine=batch_engine())

@@ -68,7 +68,7 @@ def plan(task: str, algo: str, frames: int | None = None, seed: int = 0, overrid
     not_here = [k for k in options if k not in COMMAND_LINE]
     if not_here:
         raise ValueError(f"task option(s) {not_here} cannot be set for a run; it takes {', '.join(COMMAND_LINE)}")
-    check_options(**options)
+    check_options(task, **options)
     module, cls = algo_module(algo)
     overrides = dict(overrides or {})
     if algo == "ppo":
