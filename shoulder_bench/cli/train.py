@@ -32,7 +32,11 @@ def add_parser(sub) -> None:
     p.add_argument("--policy", required=True,
                    help="policy.pt, a run folder, pretrained:NAME, or reference (the model-based controller)")
     p.add_argument("--task", default=None, help="default: the task the policy was trained on")
-    p.add_argument("--trajectories", default="test", help="test (the fixed 100), combing, or a CSV file")
+    p.add_argument("--trajectories", default=None, help="test (the fixed 100), combing, or a CSV file")
+    p.add_argument("--suite", default=None,
+                   help="a named, checksummed suite: paper (the default, = --trajectories test), fast (2-3 s "
+                        "segments), wide (5-150 deg), adl (synthetic combing); or a folder of CSV files (a hidden "
+                        "suite: every *.csv, sorted)")
     p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
                    help="a task option for this evaluation over the policy's own, e.g. delay_frames=1 or "
                         "obs_noise_deg=0.5 (repeatable; shoulder-bench tasks --options lists them)")
@@ -71,14 +75,22 @@ def _eval(args) -> int:
     from shoulder_bench.tasks.options import assignments
 
     extra = check_options(**assignments(args.option))  # bad options and files fail before the policy loads
-    trajs = trajectories_for(args.trajectories)
+    from shoulder_bench.eval.suites import load_suite
+
+    if args.suite is not None and args.trajectories is not None:
+        raise ValueError("give --suite or --trajectories, not both")
+    if args.trajectories is not None:
+        trajs, label = trajectories_for(args.trajectories), args.trajectories
+    else:
+        label = args.suite or "paper"
+        trajs, label = load_suite(label), f"suite {label}"
     policy, meta, task = policy_for(args.policy, args.task, options=extra)
     options = dict(meta.get("options") or {}) | extra
     m = evaluate(policy, task, trajs, muscle_model=meta.get("muscle_model"), options=options)
     for i, (mae, rmse, crashed) in enumerate(zip(*m["per_trajectory"].values())):
         print(f"trajectory {i:3d}: MAE {mae:6.2f} deg  RMSE {rmse:6.2f} deg{'  CRASHED' if crashed else ''}")
     m["latency_ms"] = inference_latency_ms(policy, 4 + len(TASKS[task][0]))
-    print(f"overall on {m['n_trajectories']} trajectories ({args.trajectories}"
+    print(f"overall on {m['n_trajectories']} trajectories ({label}"
           f"{''.join(f', {k}={v}' for k, v in extra.items())}): MAE {m['mae_deg']:.2f} deg, "
           f"RMSE {m['rmse_deg']:.2f} deg, crashes {m['crashes']}; inference {m['latency_ms']:.3f} ms per step "
           f"(batch 1, CPU)")

@@ -1,0 +1,131 @@
+"""Named evaluation suites (issue 14 §2): the shipped files are what the generator makes, carry their recorded
+checksums, have the shape and ranges they claim, and `shoulder-bench eval --suite` runs them."""
+import hashlib
+import json
+
+import numpy as np
+import pytest
+
+from shoulder_bench.cli import main
+from shoulder_bench.eval import suites
+from shoulder_bench.trajectory import FRAME_S, load_csv, load_test_set, quintic, write_csv
+
+
+@pytest.mark.parametrize("name", suites.SUITES)
+def test_files_match_the_generator_and_their_checksums(name):
+    path = suites.suite_path(name)
+    data = path.read_bytes()
+    assert hashlib.sha256(data).hexdigest() == suites.SHA256[name]
+    made = suites.generate(name)
+    assert data == suites.csv_text(made)  # byte for byte, as `--write` writes it
+    stored = suites.load_suite(name)
+    assert len(stored) == len(made)
+    for s, m in zip(stored, made):
+        np.testing.assert_allclose(s.angle_deg, np.round(m.angle_deg, 6), rtol=0, atol=1e-9)
+
+
+def test_paper_is_the_test_set():
+    assert suites.suite_path("paper").name == "test_set.csv"
+    assert suites.SHA256["paper"] == (suites.data_dir() / "test_set.sha256").read_text().split()[0]
+    for a, b in zip(suites.load_suite("paper"), load_test_set()):
+        np.testing.assert_array_equal(a.angle_deg, b.angle_deg)
+
+
+def test_seeds_are_distinct_from_the_paper_set():
+    assert len({suites.FAST_SEED, suites.WIDE_SEED, 20201}) == 3
+
+
+def test_a_changed_file_is_refused(tmp_path, monkeypatch):
+    (tmp_path / "suite_fast.csv").write_bytes(suites.suite_path("fast").read_bytes().replace(b"\n0,0.0,", b"\n0,0.0,1"))
+    monkeypatch.setattr(suites, "data_dir", lambda: tmp_path)
+    with pytest.raises(ValueError, match="does not match its recorded checksum"):
+        suites.load_suite("fast")
+
+
+def test_shapes_and_ranges():
+    for name in ("paper", "fast", "wide"):
+        trajs = suites.load_suite(name)
+        assert len(trajs) == 100 and all(len(t.angle_deg) == 201 for t in trajs), name  # 20 s at 0.1 s
+    paper, wide = suites.load_suite("paper"), suites.load_suite("wide")
+    assert 20 <= min(t.angle_deg.min() for t in paper) and max(t.angle_deg.max() for t in paper) <= 100
+    lo, hi = min(t.angle_deg.min() for t in wide), max(t.angle_deg.max() for t in wide)
+    assert 5 <= lo < 10 and 145 < hi <= 150  # covers 5-150 deg
+    ends = np.concatenate([t.angle_deg[::50] for t in wide])  # 5 s segment end points
+    assert np.histogram(ends, bins=5, range=(5, 150))[0].min() > 50  # spread over the whole range
+    (adl,) = suites.load_suite("adl")
+    assert len(adl.angle_deg) == 176
+
+
+def test_fast_segments_are_2_to_3_s():
+    """The segment ends come from the generator's plan; the stored samples show them: the angle between two ends is
+    a rest-to-rest quintic of that length, so the target velocity reaches zero at each end, 2-3 s apart."""
+    plans = suites.fast_plan()
+    stored = suites.load_suite("fast")
+    lengths = []
+    for (points, seg), traj in zip(plans, stored):
+        assert sum(seg) == 200
+        lengths += seg
+        ends = np.concatenate([[0], np.cumsum(seg)])
+        a = traj.angle_deg
+        for k, n in enumerate(seg):
+            t = np.arange(n + 1) * FRAME_S
+            pos, vel = quintic(t, a[ends[k]], a[ends[k + 1]], n * FRAME_S)
+            np.testing.assert_allclose(a[ends[k]:ends[k + 1] + 1], pos, atol=2e-6)  # this quintic and no other
+            assert vel[0] == 0 and vel[-1] == 0
+        # sampled velocity (central difference) nearly zero at the ends, against a peak of 1.875 x step / duration
+        step = np.abs(np.diff(points))
+        assert np.all(np.abs(traj.velocity_deg_s[ends[1:-1]]) < 0.05 * 1.875 * np.maximum(step[:-1], step[1:]) / 2.0
+                      + 1e-6)
+    lengths = np.array(lengths) * FRAME_S
+    assert lengths.min() >= 2.0 - 1e-9 and lengths.max() <= 3.0 + 1e-9
+    assert {20, 30} <= set(np.rint(lengths * 10).astype(int))  # both ends of the range occur
+    ends = np.concatenate([p for p, _ in plans])
+    assert 20 <= ends.min() and ends.max() <= 100
+
+
+def test_fast_segment_draws_always_fill_20_s():
+    rng = np.random.default_rng(0)
+    for total in range(20, 400):
+        seg = suites.fast_segments(rng, total) if not 30 < total < 40 else None
+        if seg is not None:
+            assert sum(seg) == total and all(20 <= s <= 30 for s in seg)
+
+
+def test_eval_suite_runs_and_names_the_valid_ones(capsys):
+    assert main(["eval", "--policy", "reference", "--suite", "fast", "--json"]) == 0
+    m = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert m["n_trajectories"] == 100 and m["crashes"] == 0 and m["mae_deg"] < 5
+    assert main(["eval", "--policy", "reference", "--suite", "nope"]) == 2
+    err = capsys.readouterr().err
+    assert "--suite nope: not a suite name (paper, fast, wide, adl)" in err
+    assert main(["eval", "--policy", "reference", "--suite", "fast", "--trajectories", "test"]) == 2
+    assert "give --suite or --trajectories, not both" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="choose one of paper, fast, wide, adl"):
+        suites.generate("robust")
+
+
+def test_default_is_paper_and_trajectories_still_work(capsys):
+    assert main(["eval", "--policy", "reference", "--suite", "adl", "--json"]) == 0
+    adl = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert main(["eval", "--policy", "reference", "--trajectories", "combing", "--json"]) == 0
+    combing = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert adl["n_trajectories"] == combing["n_trajectories"] == 1
+    assert abs(adl["mae_deg"] - combing["mae_deg"]) < 1e-3  # the same profile, stored at 1e-6 deg
+
+
+def test_a_folder_is_a_hidden_suite(tmp_path, capsys):
+    fast = suites.load_suite("fast")
+    write_csv(tmp_path / "b.csv", fast[1:3])
+    write_csv(tmp_path / "a.csv", fast[:1])
+    (tmp_path / "notes.txt").write_text("ignored")
+    got = suites.load_suite(str(tmp_path))
+    assert [t.name for t in got] == ["a.csv:0", "b.csv:0", "b.csv:1"]
+    np.testing.assert_allclose(got[2].angle_deg, fast[2].angle_deg, atol=1e-9)
+    assert main(["eval", "--policy", "reference", "--suite", str(tmp_path), "--json"]) == 0
+    out = capsys.readouterr().out
+    assert f"(suite {tmp_path}" in out and json.loads(out.strip().splitlines()[-1])["n_trajectories"] == 3
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(ValueError, match="holds no"):
+        suites.load_suite(str(empty))
+    assert load_csv(tmp_path / "a.csv")[0].frames == 200
