@@ -32,6 +32,7 @@ callbacks keep no state of their own, so any number of threads may call them at 
 from __future__ import annotations
 
 import ctypes
+import threading
 
 import llvmlite.binding as llvm
 import mujoco
@@ -158,14 +159,22 @@ def _grow(capacity: int) -> np.ndarray:
 
 
 _grow(256)
+_REGISTER_LOCK = threading.Lock()
 
 
 def register(law_id: int, law, ctrl_of, qadr: int, vadr: int) -> None:
     """Fill row `law_id` for `law` attached to a model: `ctrl_of[c]` is the actuator whose ctrl is column c's
     activation, (qadr, vadr) the law joint's qpos and dof addresses in that model. Call before the model's
-    `actuator_user` names the id (the row is complete before any callback can read it)."""
+    `actuator_user` names the id (the row is complete before any callback can read it). Thread-safe: writers hold
+    `_REGISTER_LOCK`, so a table grown by one thread copies every row another has written (callbacks read without
+    it)."""
     if law_id < 1:
         raise ValueError(f"law id {law_id} must be >= 1")
+    with _REGISTER_LOCK:
+        _register(law_id, law, ctrl_of, qadr, vadr)
+
+
+def _register(law_id: int, law, ctrl_of, qadr: int, vadr: int) -> None:
     table = _TABLES[-1]
     while law_id >= len(table):
         table = _grow(2 * len(table))
