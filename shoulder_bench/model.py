@@ -175,9 +175,10 @@ def attach_law(m: mujoco.MjModel, law, joint: str | None = None) -> None:
     law_id = next(_law_ids)
     from shoulder_bench import native as compiled  # lazily: numba loads (or compiles) the callbacks
 
-    first = {a: v[0] for v in law.groups.values() for a in v}  # the actuator whose ctrl is each table's activation
+    # the actuator whose ctrl is each table's activation: its muscle's first table's
+    ctrl_of = [names.index(law.actuators[law.first_table[k]]) for k in law.muscle_of]
     jnt = m.joint(joint).id
-    compiled.register(law_id, law, [names.index(first[a]) for a in law.actuators], int(m.jnt_qposadr[jnt]),
+    compiled.register(law_id, law, ctrl_of, int(m.jnt_qposadr[jnt]),
                       int(m.jnt_dofadr[jnt]))  # complete before actuator_user names the id
     _LAWS[law_id] = (law, joint)
     m.actuator_user[:, 0] = law_id

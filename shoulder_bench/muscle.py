@@ -145,9 +145,10 @@ class ForceLaw:
             raise ValueError(f"muscle groups {groups} must name each table {self.actuators} exactly once")
         self.groups = groups
         self.muscles = tuple(groups)
-        self._expand = np.array([next(k for k, v in enumerate(groups.values()) if a in v) for a in self.actuators])
+        # the muscle (index into `muscles`) of each table / actuator column
+        self.muscle_of = np.array([next(k for k, v in enumerate(groups.values()) if a in v) for a in self.actuators])
         self._sum = np.zeros((len(tables), len(groups)))  # per-actuator -> per-muscle sums
-        self._sum[np.arange(len(tables)), self._expand] = 1.0
+        self._sum[np.arange(len(tables)), self.muscle_of] = 1.0
         self.first_table = [self.actuators.index(v[0]) for v in groups.values()]  # where each muscle's ctrl is read
         self._grouped = len(groups) != len(tables)
         grid = tables[0].angle_deg
@@ -223,7 +224,7 @@ class ForceLaw:
         """(5, B, n): active force, active per unit activation, passive force, force-velocity factor, gain."""
         angle = np.ascontiguousarray(angle, dtype=np.float64)
         velocity = np.ascontiguousarray(velocity, dtype=np.float64)
-        activation = np.ascontiguousarray(np.asarray(activation, dtype=np.float64)[:, self._expand])
+        activation = np.ascontiguousarray(np.asarray(activation, dtype=np.float64)[:, self.muscle_of])
         out = np.empty((5,) + activation.shape)
         _kernel(self._flat, self._arm, self.levels, self._a0, self._inv_da, self._neg_inv_vscale,
                 angle, velocity, activation, out)
@@ -239,7 +240,7 @@ class ForceLaw:
         reused buffer."""
         self._one_state[0] = angle
         self._one_state[1] = velocity
-        self._one_act[0] = np.asarray(activation)[self._expand]
+        self._one_act[0] = np.asarray(activation)[self.muscle_of]
         out = self._one_out
         _kernel(self._flat, self._arm, self.levels, self._a0, self._inv_da, self._neg_inv_vscale,
                 self._one_state[:1], self._one_state[1:], self._one_act, out)
@@ -281,10 +282,11 @@ class ForceLaw:
 
 
 def _optimal_fibre_length(t: MuscleTable) -> float:
-    """v1's l_opt (OPTIMAL_FIBRE_LENGTH); for others (v2's tendons ld1-3, ...) the table's `optimal_fibre_length_m`."""
-    if t.muscle in OPTIMAL_FIBRE_LENGTH:
-        return OPTIMAL_FIBRE_LENGTH[t.muscle]
-    return float(t.meta["optimal_fibre_length_m"])
+    """The table's own `optimal_fibre_length_m` (v2's tables record it); v1's tables, which do not, take
+    OPTIMAL_FIBRE_LENGTH."""
+    if "optimal_fibre_length_m" in t.meta:
+        return float(t.meta["optimal_fibre_length_m"])
+    return OPTIMAL_FIBRE_LENGTH[t.muscle]
 
 
 @numba.njit(inline="always")

@@ -99,8 +99,6 @@ class BatchSimulator:
         if engine == "mujoco":  # MuJoCo's RK4 through the compiled callbacks (shoulder_bench.native)
             if law is not None:
                 attach_law(m, law, joint)
-                first = {a: k for k, v in enumerate(law.groups.values()) for a in v}
-                self._muscle_of = np.array([first[a] for a in law.actuators])  # the muscle of each law column
             install_callbacks(native=True)
             if warmstart:
                 raise ValueError("engine='mujoco' cannot carry the warmstart across frames (rollout returns none); "
@@ -206,7 +204,7 @@ class BatchSimulator:
     def _mujoco_frame(self, qpos, qvel, act):
         """engine="mujoco": one `rollout` of steps_per_frame RK4 steps, the law in MuJoCo's callbacks."""
         if self.law is not None:
-            self._ctrl[:, :, self.columns] = np.asarray(act, dtype=np.float64)[:, None, self._muscle_of]
+            self._ctrl[:, :, self.columns] = np.asarray(act, dtype=np.float64)[:, None, self.law.muscle_of]
         self._state[:, self._iq] = qpos
         self._state[:, self._iv] = qvel
         self._rollout.rollout(self._models, self._datas, self._state, self._ctrl, nstep=self.steps_per_frame,
