@@ -52,6 +52,16 @@ def harden_couplings(model, invweight: float = COUPLING_INVWEIGHT):
     return model
 
 
+def polycoef_value(c, x):
+    """A MuJoCo joint equality's dependent offset at driver offset `x` (scalar or array): sum c_k x^k, k = 0..4."""
+    return sum(c[k] * x ** k for k in range(5))
+
+
+def polycoef_slope(c, x):
+    """Its derivative d(dependent)/d(driver) at `x`: sum k c_k x^(k-1), k = 1..4."""
+    return sum(k * c[k] * x ** (k - 1) for k in range(1, 5))
+
+
 def actuators_of(muscles) -> tuple[str, ...]:
     """The actuators (tendons) of the tasks' `muscles`, in model order."""
     unknown = [m for m in muscles if m not in ACTUATORS]
@@ -91,7 +101,7 @@ class LockedPath:
         out = np.tile(m.qpos0, (len(x), 1))
         out[:, self.q] = x + m.qpos0[self.q]
         for adr, _, c in self.couplings:
-            out[:, adr] = m.qpos0[adr] + sum(c[k] * x ** k for k in range(5))
+            out[:, adr] = m.qpos0[adr] + polycoef_value(c, x)
         return out
 
     def pose(self, elevation_rad: float) -> mujoco.MjData:
@@ -112,7 +122,7 @@ class LockedPath:
         s = np.zeros(m.nv)
         s[self.dof] = 1.0
         for _, dof, c in self.couplings:
-            s[dof] = sum(k * c[k] * x ** (k - 1) for k in range(1, 5))
+            s[dof] = polycoef_slope(c, x)
         return s
 
     def gravity_torque(self, elevation_rad: float) -> float:
@@ -174,7 +184,7 @@ class Arm(LockedPath):
 
     def moment_arms(self, angle_deg) -> dict[str, np.ndarray]:
         """Total coupled moment arms (m) of every actuator's tendon at `angle_deg`, for `ForceLaw.load(arms=...)`."""
-        names = tuple(a for v in ACTUATORS.values() for a in v)
+        names = actuators_of(MUSCLES)
         return dict(zip(names, self.tendon_geometry(angle_deg, names)[1].T))
 
     def load_law(self, muscle_model: str, muscles=tuple(ACTUATORS), condition: str | None = None, **fractions):

@@ -24,6 +24,9 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from shoulder_bench.arm import polycoef_slope, polycoef_value
+from shoulder_bench.geometry import tendon_jacobian
+
 GH_COORDINATES = ("elv_angle", "shoulder_elv", "shoulder_rot")
 GIRDLES = ("fixed", "coupled")
 H_DEG = 0.25
@@ -61,7 +64,7 @@ class ShoulderPoser:
             d.qpos[self.qadr[name]] = q
         for dep, drv, c in self._active(girdle):
             x = d.qpos[self.qadr[drv]] - m.qpos0[self.qadr[drv]]
-            d.qpos[self.qadr[dep]] = m.qpos0[self.qadr[dep]] + sum(c[k] * x ** k for k in range(5))
+            d.qpos[self.qadr[dep]] = m.qpos0[self.qadr[dep]] + polycoef_value(c, x)
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
         mujoco.mj_tendon(m, d)
@@ -74,13 +77,7 @@ class ShoulderPoser:
         """Analytic -dL/dq (m) per GH coordinate from `ten_J`, the slaved joints by the chain rule."""
         m = self.m
         d = self.pose(*angles, girdle)
-        J = np.zeros((m.ntendon, m.nv))
-        if hasattr(m, "ten_J_rowadr"):  # sparse tendon Jacobian (MuJoCo >= 3.3)
-            for i in range(m.ntendon):
-                a, n = m.ten_J_rowadr[i], m.ten_J_rownnz[i]
-                J[i, m.ten_J_colind[a:a + n]] = d.ten_J[a:a + n]
-        else:
-            J[:] = np.asarray(d.ten_J).reshape(m.ntendon, m.nv)
+        J = tendon_jacobian(m, d)
         out = {}
         for name in GH_COORDINATES:
             dq = np.zeros(m.nv)
@@ -88,7 +85,7 @@ class ShoulderPoser:
             for dep, drv, c in self._active(girdle):
                 if drv == name:
                     x = d.qpos[self.qadr[drv]] - m.qpos0[self.qadr[drv]]
-                    dq[self.dadr[dep]] = sum(k * c[k] * x ** (k - 1) for k in range(1, 5))
+                    dq[self.dadr[dep]] = polycoef_slope(c, x)
             out[name] = -(J[tendon_ids] @ dq)
         return out
 
