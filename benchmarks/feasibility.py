@@ -15,7 +15,7 @@ import numpy as np
 
 from shoulder_bench import statics
 from shoulder_bench.arm import arm
-from shoulder_bench.authoring.validate import static_capacity, static_reach
+from shoulder_bench.authoring.validate import static_reach
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
 from shoulder_bench.trajectory import load_test_set
 
@@ -36,7 +36,7 @@ def main() -> None:
     test = load_test_set()
     hold = np.stack([statics.holding_activation(law, t.angle_deg) for t in test])  # (100, 201, n)
     allang = np.radians(np.concatenate([t.angle_deg for t in test]))
-    cap = static_capacity(law, allang)
+    cap = statics.static_capacity(law, allang)
     unreachable = cap < -statics.gravity_torque(allang)
     rate = np.abs(np.diff(hold, axis=1)).max(axis=2) > 0.01
     print(f"test frames the muscles cannot hold even at activation 1: {unreachable.mean():.1%}")

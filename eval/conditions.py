@@ -27,34 +27,20 @@ SHARE_RANGE_DEG = (0.0, 30.0)
 PHILLIPS_2018 = {"share": 0.40, "ci95": (0.32, 0.48), "source": "Phillips, Kosek & Karduna 2018, J Biomech 68:65"}
 
 
-def elevation_capacity(law, angle_rad, off=()) -> np.ndarray:
-    """(B,) the largest elevating torque at rest (N m): each muscle fully on where that helps, off otherwise;
-    muscles in `off` held at activation 0."""
-    a = np.atleast_1d(np.asarray(angle_rad, dtype=float))
-    n, v = len(law.muscles), np.zeros_like(a)
-    on = law.torque(a, v, np.ones((len(a), n)))
-    rest = law.torque(a, v, np.zeros((len(a), n)))
-    best = np.maximum(on, rest)
-    for m in off:
-        k = law.muscles.index(m)
-        best[:, k] = rest[:, k]
-    return best.sum(axis=1)
-
-
 def measure(condition: str | None, muscle_model: str = DEFAULT_MUSCLE_MODEL, reference: bool = True) -> dict:
     """The report's row for one condition (None: intact)."""
     law = arm().load_law(muscle_model, MUSCLES, condition)
     deg = np.arange(TORQUE_RANGE_DEG[0], TORQUE_RANGE_DEG[1] + 1e-9, 1.0)
-    cap = elevation_capacity(law, np.radians(deg))
+    cap = statics.static_capacity(law, np.radians(deg))
     fine = np.arange(0.0, RANGE_DEG[1], 0.1)
     q = np.radians(fine)
-    reach = statics.reach_on_grid(fine, elevation_capacity(law, q), statics.gravity_torque(q), RANGE_DEG[1])
+    reach = statics.reach_on_grid(fine, statics.static_capacity(law, q), statics.gravity_torque(q), RANGE_DEG[1])
     row = {"condition": condition or "none", "max_torque_Nm": float(cap.max()),
            "max_torque_at_deg": float(deg[int(np.argmax(cap))]), "static_reach_deg": reach}
     if condition is None:
         s = np.radians(np.arange(SHARE_RANGE_DEG[0], SHARE_RANGE_DEG[1] + 1e-9, 1.0))
-        full = elevation_capacity(law, s)
-        row["ssp_share"] = float(np.mean((full - elevation_capacity(law, s, off=("ssp",))) / full))
+        full = statics.static_capacity(law, s)
+        row["ssp_share"] = float(np.mean((full - statics.static_capacity(law, s, off=("ssp",))) / full))
     if reference:
         from shoulder_bench.eval.evaluate import evaluate
         from shoulder_bench.eval.reference import ReferenceController

@@ -53,6 +53,20 @@ def holding_activation(law, angle_deg) -> np.ndarray:
     return distribute(law, a, -gravity_torque(a))
 
 
+def static_capacity(law, angle_rad, off=()) -> np.ndarray:
+    """(B,) the largest elevating torque at rest (N m): each muscle of the law fully on where that helps, off
+    (passive only) otherwise; muscles in `off` held at activation 0."""
+    angle_rad = np.atleast_1d(np.asarray(angle_rad, dtype=float))
+    n, v = len(law.muscles), np.zeros_like(angle_rad)
+    on = law.torque(angle_rad, v, np.ones((len(angle_rad), n)))
+    rest = law.torque(angle_rad, v, np.zeros((len(angle_rad), n)))
+    best = np.maximum(on, rest)
+    for m in off:
+        k = law.muscles.index(m)
+        best[:, k] = rest[:, k]
+    return best.sum(axis=1)
+
+
 def rest_on_grid(deg: np.ndarray, net: np.ndarray) -> float:
     """Where the arm let go hanging settles, from the net torque (passive + gravity, N m) sampled on the ascending
     grid `deg`: from 0 deg, in the direction the torque pushes, the first sign change (linear interpolation; a zero

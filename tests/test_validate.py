@@ -313,9 +313,9 @@ def test_v2_shows_the_tasks_fem_tables_beside_the_force_targets(v2_report):
     ssp = arm().load_law("fem", ("ssp",))
     reach = tab["ssp_static_reach_deg"]
     upto = np.radians(np.arange(0.0, reach + 1e-9, 0.1))
-    assert (validate.static_capacity(ssp, upto) >= -g(upto)).all()
+    assert (statics.static_capacity(ssp, upto) >= -g(upto)).all()
     over = np.radians([reach + 0.1, reach + 0.2])
-    assert not (validate.static_capacity(ssp, over) >= -g(over)).all()
+    assert not (statics.static_capacity(ssp, over) >= -g(over)).all()
 
 
 def test_v2_targets_are_decided_in_the_tasks_plane_and_shown_in_both(v2_report):

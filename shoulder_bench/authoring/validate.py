@@ -165,12 +165,6 @@ def target(tid: str, text: str, passed: bool, measured: str, bound: str, note: s
     return {"id": tid, "target": text, "passed": bool(passed), "measured": measured, "bound": bound, "note": note}
 
 
-def static_capacity(law, angle_rad) -> np.ndarray:
-    """Largest elevating torque at rest (N m): each muscle of the law fully on where that helps, off otherwise."""
-    angle_rad = np.atleast_1d(np.asarray(angle_rad, dtype=float))
-    n = len(law.muscles)
-    ones, zeros, v = np.ones((len(angle_rad), n)), np.zeros((len(angle_rad), n)), np.zeros_like(angle_rad)
-    return np.maximum(law.torque(angle_rad, v, ones), law.torque(angle_rad, v, zeros)).sum(axis=1)
 
 
 def v1_gravity_torque(angle_rad) -> np.ndarray:
@@ -185,7 +179,7 @@ def static_reach(law, step_deg: float = 0.1, top_deg: float = anatomy.JOINT_RANG
     `statics.gravity_torque` for the tasks' arm): the highest angle (deg, on a `step_deg` grid from 0 below
     `top_deg`) up to which every angle from 0 can be held; None if not even 0."""
     fine = np.radians(np.arange(0.0, top_deg, step_deg))
-    return statics.reach_on_grid(np.degrees(fine), static_capacity(law, fine), gravity(fine), top_deg)
+    return statics.reach_on_grid(np.degrees(fine), statics.static_capacity(law, fine), gravity(fine), top_deg)
 
 
 def passive_torque(law, angle_deg) -> np.ndarray:
