@@ -1,18 +1,20 @@
-"""`shoulder-bench leaderboard [--runs DIR] [--pretrained] [--out DIR]`: one row per source and everything that defines
-a run but its seed (task, algorithm, muscle model, task options, model version, frame budget, algorithm config), on the
-fixed test set and on the synthetic combing-like profile, with the reference controller and the paper's numbers as
-reference rows, the paper's qualitative findings measured (saw-tooth rate, ssp + isp share early and late). Runs that
-differ only in their seed are averaged as seeds of one row; where rows of one task and algorithm differ in budget or
-config, a `variant` column says how (the frames, or a short hash of the config).
+"""`shoulder-bench leaderboard [--runs DIR] [--pretrained] [--suite NAME ...] [--out DIR]`: one row per source and
+everything that defines a run but its seed (task, algorithm, muscle model, task options, model version, frame budget,
+algorithm config), on the fixed test set (the `paper` suite), the synthetic combing-like profile and any further
+suites, with the reference controller and the paper's numbers as reference rows. The columns, their 95 % bootstrap
+intervals and the ranking (success, then MAE, then effort, within a muscle set) are `eval.board_columns`' and are
+defined in docs/ranking.md; the paper's qualitative findings are measured (saw-tooth rate, ssp + isp share early and
+late). Runs that differ only in their seed are seeds of one row; where rows of one task and algorithm differ in budget
+or config, a `variant` column says how (the frames, or a short hash of the config).
 
-Written as Markdown, CSV and a self-contained HTML page (figures embedded). Without runs the rows are the shipped
-pretrained agents (one seed each); `--pretrained` adds them next to the runs. Every run and policy is read and checked
-before any evaluation, and the three files are renamed into place together once all are complete.
+Written as Markdown, CSV and a self-contained HTML page (figures embedded: error distributions, saw-tooth rates and
+sample-efficiency curves). Without runs the rows are the shipped pretrained agents (one seed each); `--pretrained` adds
+them next to the runs. Every suite, run and policy is read and checked before any evaluation, and the three files are
+renamed into place together once all are complete.
 """
 from __future__ import annotations
 
 import base64
-import csv
 import hashlib
 import io
 import json
@@ -21,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from shoulder_bench.eval import board_columns as board
+from shoulder_bench.eval.board_columns import CI, NOTES, TEXT, cells, csv_text, head, options_text
 from shoulder_bench.eval.evaluate import evaluate, trajectories_for
 
 PAPER = [  # their ArtiSynth FEM model, 100 test trajectories (combing: their in-vivo recording)
@@ -29,12 +33,7 @@ PAPER = [  # their ArtiSynth FEM model, 100 test trajectories (combing: their in
     {"task": "abduction_4m", "algo": "paper PPO-4", "test_mae": 5.15, "test_rmse": 6.64, "combing_mae": 6.57,
      "combing_rmse": 7.67},
 ]
-COLUMNS = ["task", "algo", "muscle_model", "options", "model_version", "variant", "source", "seeds", "test_mae",
-           "test_rmse", "combing_mae", "combing_rmse",
-           "frames_to_paper", "wall_s", "crashes", "sawtooth_per_s", "early_share", "late_share"]
 SAME_SHARE = 0.05  # shares closer than 5 points: no clear early/late difference
-TEXT = ("task", "algo", "muscle_model", "options", "model_version", "variant", "source", "seeds",
-        "crashes")  # the columns that are not (mean, std) pairs
 SETTING = ("task", "algo", "muscle_model", "options", "model_version")  # shown as columns of their own
 NOT_SETTING = ("seed", "frames_asked", "frames_per_iteration", "test")  # recorded, but not what defines a row
 
@@ -44,11 +43,6 @@ def paper_errors(task: str, algo: str | None) -> tuple[float, float] | None:
     if algo not in ("ppo", "dqn"):
         return None
     return next(((p["test_mae"], p["test_rmse"]) for p in PAPER if p["task"] == task), None)
-
-
-def _mean_std(values) -> tuple[float, float]:
-    v = np.array([x for x in values if x is not None], dtype=float)
-    return (float(v.mean()), float(v.std())) if v.size else (float("nan"), float("nan"))
 
 
 def model_version() -> str:
@@ -127,36 +121,35 @@ def _variants(settings: list[dict]) -> list[str]:
     return labels
 
 
-def options_text(options) -> str:
-    """Task options as `key=value, ...`; "default" for none."""
-    if not isinstance(options, dict):
-        return str(options)
-    return ", ".join(f"{k}={v}" for k, v in sorted(options.items())) or "default"
-
-
-def _score(policy, task: str, muscle_model, test, combing, options: dict | None = None) -> dict:
-    """Test-set and combing metrics plus the qualitative measures of one policy."""
-    from shoulder_bench.eval.measures import measures
-    from shoulder_bench.tasks import TASKS
-
+def _score(policy, task: str, muscle_model, test, combing, suites: dict, options: dict | None = None) -> dict:
+    """One policy evaluated on the test set (recorded), combing and each suite; its columns (`board.columns`)."""
     t = evaluate(policy, task, test, muscle_model=muscle_model, record=True, options=options)
     c = evaluate(policy, task, combing, muscle_model=muscle_model, options=options)
-    return {"test_mae": t["mae_deg"], "test_rmse": t["rmse_deg"], "crashes": t["crashes"] + c["crashes"],
-            "combing_mae": c["mae_deg"], "combing_rmse": c["rmse_deg"], **measures(t["trace"], TASKS[task][0]),
-            "per_trajectory": t["per_trajectory"]}
+    s = {spec: evaluate(policy, task, trajectories, muscle_model=muscle_model, options=options)
+         for spec, trajectories in suites.items()}
+    return board.columns(t, c, s, test, task, muscle_model, options)
 
 
-def collect(runs: Path | None, pretrained: bool = False, progress: bool = False) -> list[dict]:
-    """Rows (dicts with COLUMNS) for runs and/or the shipped agents, the reference controller and the paper.
+def load_suites(suites) -> dict:
+    """{spec: trajectories} of the suites beyond `paper` (the test set, always scored), each loaded and checked
+    (`eval.suites.load_suite`: a name or a folder of CSVs); repeats dropped."""
+    from shoulder_bench.eval.suites import load_suite
 
-    Every policy is evaluated now, on the fixed test set (recorded, for the qualitative measures) and on the combing
-    profile; frames to the paper's accuracy and wall time come from the runs' metrics.json (a shipped agent's from the
-    record beside it)."""
+    return {spec: load_suite(spec) for spec in dict.fromkeys(suites or ()) if spec != "paper"}
+
+
+def collect(runs: Path | None, pretrained: bool = False, progress: bool = False, suites=("paper",)) -> list[dict]:
+    """Rows for runs and/or the shipped agents and the reference controller, ranked (`board.ranked`), then the paper's.
+
+    Every policy is evaluated now, on the fixed test set (recorded, for the measures), on the combing profile and on
+    each suite of `suites` beyond `paper`; frames and wall time to accuracy and the evaluation histories come from the
+    runs' metrics.json and TensorBoard logs (a shipped agent's record beside it)."""
     from tqdm import tqdm
 
     from shoulder_bench.eval.reference import ReferenceController
     from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
 
+    extra = load_suites(suites)
     entries = _entries(runs, pretrained)
     test, combing = trajectories_for("test"), trajectories_for("combing")
     groups: dict[tuple[str, str], list[dict]] = defaultdict(list)
@@ -165,36 +158,29 @@ def collect(runs: Path | None, pretrained: bool = False, progress: bool = False)
         s = e["setting"]
         key = (e["source"], json.dumps(s, sort_keys=True))
         settings[key] = s
-        groups[key].append(_score(e["policy"], s["task"], s["muscle_model"], test, combing, s["options"])
-                           | {"frames_to_paper": e["metrics"].get("frames_to_paper_accuracy"),
-                              "wall_s": e["metrics"].get("wall_s")})
+        run = e["source"].startswith("runs:")
+        groups[key].append(_score(e["policy"], s["task"], s["muscle_model"], test, combing, extra, s["options"])
+                           | {"accuracy": board.accuracy_of(e["metrics"]), "wall_s": e["metrics"].get("wall_s"),
+                              "history": board.history(Path(e["spec"]), e["metrics"]) if run else None})
     for task in tqdm(("abduction_ssp", "abduction_4m"), desc="reference controller", disable=not progress):
         s = {"task": task, "algo": "reference controller", "muscle_model": DEFAULT_MUSCLE_MODEL, "options": {},
              "model_version": model_version()}
         key = ("model-based", json.dumps(s, sort_keys=True))
         settings[key] = s
-        groups[key].append(_score(ReferenceController(task), task, None, test, combing)
-                           | {"frames_to_paper": None, "wall_s": None})
-    keys = sorted(groups, key=lambda k: (k[0] == "model-based", settings[k]["task"], settings[k]["algo"], k))
+        groups[key].append(_score(ReferenceController(task), task, None, test, combing, extra)
+                           | {"accuracy": {}, "wall_s": None, "history": None})
+    keys = sorted(groups, key=lambda k: (settings[k]["task"], k[0] == "model-based", settings[k]["algo"], k))
     variants = dict(zip(keys, _variants([settings[k] for k in keys])))
-    rows = []
-    for key in keys:
-        s, entries = settings[key], groups[key]
-        row = {k: s[k] for k in SETTING} | {"variant": variants[key], "source": key[0], "seeds": len(entries),
-                                             "crashes": sum(e["crashes"] for e in entries)}
-        for col in COLUMNS:
-            if col not in TEXT:
-                row[col] = _mean_std(e.get(col) for e in entries)
-        row["per_trajectory_mae"] = [x for e in entries for x in e["per_trajectory"]["mae_deg"]]
-        row["per_trajectory_rmse"] = [x for e in entries for x in e["per_trajectory"]["rmse_deg"]]
-        reached = sum(e["frames_to_paper"] is not None for e in entries)
-        row["reached"] = f"{reached}/{len(entries)}" if any(e["wall_s"] is not None for e in entries) else ""
-        rows.append(row)
+    rows = [{k: settings[key][k] for k in SETTING} | {"variant": variants[key], "source": key[0],
+                                                       "suites": list(extra)} | board.aggregate(groups[key], extra)
+            for key in keys]
+    rows = board.ranked(rows)
     for p in PAPER:
-        rows.append({k: (p[k], 0.0) if k in p and k not in TEXT else p.get(k, "") for k in COLUMNS}
-                    | {"task": p["task"], "algo": p["algo"], "muscle_model": "their FEM", "options": "",
-                       "model_version": "", "variant": "", "source": "paper (their FEM model)", "seeds": "",
-                       "crashes": "", "reached": ""})
+        nan3 = (float("nan"),) * 2
+        rows.append({k: "" for k in TEXT} | {k: (p[k], *nan3) for k in CI} | {
+            "task": p["task"], "algo": p["algo"], "muscle_model": "their FEM", "source": "paper (their FEM model)",
+            "combing_mae": (p.get("combing_mae", float("nan")), 0.0),
+            "combing_rmse": (p.get("combing_rmse", float("nan")), 0.0), "suites": list(extra)})
     return rows
 
 
@@ -237,45 +223,18 @@ def findings(rows: list[dict]) -> list[str]:
     return out
 
 
-def _pair(value, digits: int = 2) -> str:
-    m, s = value
-    if not np.isfinite(m):
-        return "–"
-    return f"{m:.{digits}f} ± {s:.{digits}f}" if s else f"{m:.{digits}f}"
+def _png(fig) -> str:
+    import matplotlib.pyplot as plt
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    plt.close(fig)
+    return base64.b64encode(buf.getvalue()).decode()
 
 
-def head(variant: bool) -> list[str]:
-    """The Markdown / HTML column titles; the variant column only where some row has one."""
-    return HEAD[:5] + (["variant"] if variant else []) + HEAD[5:]
-
-
-def cells(row: dict, variant: bool = False) -> list[str]:
-    """The Markdown / HTML cells of one row (head(variant)'s order)."""
-    setting = [row["task"], row["algo"], row["muscle_model"],
-               options_text(row["options"]) if "paper" not in row["source"] else "", row["model_version"]]
-    setting += [row["variant"]] if variant else []
-    if "paper" in row["source"]:
-        return setting + [row["source"], "", _pair(row["test_mae"]), _pair(row["test_rmse"]),
-                _pair(row["combing_mae"]) if row["combing_mae"] else "", _pair(row["combing_rmse"])
-                if row["combing_rmse"] else "", "", "", "", "", ""]
-    frames = row["frames_to_paper"][0]
-    reached = f" ({row['reached']})" if row["reached"] else ""
-    early, late = row["early_share"][0], row["late_share"][0]
-    return setting + [row["source"], str(row["seeds"]), _pair(row["test_mae"]),
-            _pair(row["test_rmse"]), _pair(row["combing_mae"]), _pair(row["combing_rmse"]),
-            ("–" if not np.isfinite(frames) else f"{frames / 1e6:.2f} M") + reached if row["reached"] else "–",
-            _pair(row["wall_s"], 0), str(row["crashes"]), _pair(row["sawtooth_per_s"]),
-            f"{early:.0%} / {late:.0%}" if np.isfinite(early) else "–"]
-
-
-HEAD = ["task", "algorithm", "muscle model", "options", "model version", "source", "seeds", "test MAE (deg)",
-        "test RMSE (deg)", "combing MAE (deg, synthetic)",
-        "combing RMSE (deg, synthetic)", "frames to 5.15 deg (seeds reaching it)", "wall (s)", "crashes",
-        "saw-tooth (sign changes/s)", "ssp+isp share <45 / >=45 deg"]
-NOTES = ("Fixed test set: 100 trajectories of 20 s, every policy evaluated when the board was built. Combing: a "
-         "**synthetic** profile (the paper's in-vivo recording is not public). Paper rows: their ArtiSynth FEM model, "
-         "not this one. Saw-tooth: sign changes of delta-activation per second and muscle on the test set. "
-         "ssp+isp share: their part of the summed activation with the arm below 45 deg / at or above.")
+def _label(r: dict) -> str:
+    return (f"{r['algo'].upper() if r['algo'] in ('ppo', 'dqn', 'bdq') else r['algo']} · {r['task']}"
+            + (f" ({where(r)})" if r["source"] != "model-based" else ""))
 
 
 def _figure(rows: list[dict]) -> str:
@@ -287,23 +246,34 @@ def _figure(rows: list[dict]) -> str:
 
     from shoulder_bench.eval.plots import error_boxes
 
-    ranked = [r for r in rows if "per_trajectory_mae" in r]
-    groups = [(f"{r['algo'].upper() if r['algo'] in ('ppo', 'dqn', 'bdq') else r['algo']} · {r['task']}"
-               + (f" ({where(r)})" if r["source"] != "model-based" else ""), paper_errors(r["task"], r["algo"]),
-               np.array(r["per_trajectory_mae"]), np.array(r["per_trajectory_rmse"])) for r in ranked]
+    scored = [r for r in rows if "per_trajectory_mae" in r]
+    groups = [(_label(r), paper_errors(r["task"], r["algo"]), np.array(r["per_trajectory_mae"]),
+               np.array(r["per_trajectory_rmse"])) for r in scored]
     fig, axes = plt.subplots(1, 3, figsize=(15, 0.45 * len(groups) + 1.8), sharey=True,
                              gridspec_kw={"width_ratios": [2, 2, 1.2]})
     error_boxes(axes[0], axes[1], groups)
-    axes[2].barh(range(1, len(ranked) + 1), [r["sawtooth_per_s"][0] for r in ranked],
-                 xerr=[r["sawtooth_per_s"][1] for r in ranked], color="tab:blue")
+    axes[2].barh(range(1, len(scored) + 1), [r["sawtooth_per_s"][0] for r in scored],
+                 xerr=[r["sawtooth_per_s"][1] for r in scored], color="tab:blue")
     axes[2].set(xlabel="saw-tooth: sign changes of\ndelta-activation per s")
     axes[2].grid(alpha=0.3, axis="x")
     axes[0].invert_yaxis()
     fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
-    plt.close(fig)
-    return base64.b64encode(buf.getvalue()).decode()
+    return _png(fig)
+
+
+def _curves(rows: list[dict]) -> str | None:
+    """Sample-efficiency curves (test MAE against frames, mean and 95 % band over seeds), one panel per muscle set,
+    every row with an evaluation history; None if none has one."""
+    from shoulder_bench.eval.plots import sample_efficiency_figure
+    from shoulder_bench.tasks import TASKS
+
+    panels: dict[str, list] = {}
+    for r in rows:
+        if r.get("curve") is not None:
+            muscles = TASKS[r["task"]][0]
+            name = "one muscle (" + muscles[0] + ")" if len(muscles) == 1 else f"{len(muscles)} muscles"
+            panels.setdefault(name, []).append((f"{_label(r)}, n = {r['curve']['n']}", r["curve"]))
+    return _png(sample_efficiency_figure(panels)) if panels else None
 
 
 def write(rows: list[dict], out: Path) -> dict[str, Path]:
@@ -314,34 +284,32 @@ def write(rows: list[dict], out: Path) -> dict[str, Path]:
 
     out = checked_dir(out, "--out")
     variant = any(r["variant"] for r in rows)
-    titles = head(variant)
+    titles = head(variant, rows[0]["suites"] if rows else ())
     table = [cells(r, variant) for r in rows]
     found = findings(rows)
     md = ("| " + " | ".join(titles) + " |\n|" + "---|" * len(titles) + "\n"
           + "".join("| " + " | ".join(line) + " |\n" for line in table)
           + "\n" + NOTES + "\n" + ("\n**The paper's qualitative findings, measured:**\n\n" if found else "")
           + "".join(f"- {f}\n" for f in found))
-    buf = io.StringIO()
-    w = csv.writer(buf)
-    w.writerow([h for c in COLUMNS for h in ((c,) if c in TEXT else (f"{c}_mean", f"{c}_std"))]
-               + ["seeds_reaching_paper_accuracy"])
-    for r in rows:
-        text = r | {"options": json.dumps(r["options"], sort_keys=True) if isinstance(r["options"], dict) else ""}
-        w.writerow([v for c in COLUMNS for v in ((text[c],) if c in TEXT else r[c] if isinstance(r[c], tuple)
-                                                 else ("", ""))] + [r["reached"]])
     body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in line) + "</tr>" for line in table)
     notes = html.escape(NOTES).replace("**synthetic**", "<b>synthetic</b>")
+    curves = _curves(rows)
     page = ("<!doctype html><meta charset='utf-8'><title>shoulder_bench leaderboard</title>"
             "<style>body{font-family:sans-serif;margin:2em}td,th{border:1px solid #ccc;padding:4px 8px}"
             "table{border-collapse:collapse}</style><h1>shoulder_bench leaderboard</h1>"
             f"<table><tr>{''.join(f'<th>{html.escape(h)}</th>' for h in titles)}</tr>{body}</table><p>{notes}</p>"
             + (f"<h2>The paper's qualitative findings, measured</h2><ul>"
                f"{''.join(f'<li>{html.escape(x)}</li>' for x in found)}</ul>" if found else "")
-            + f"<p><img alt='per-trajectory test errors and saw-tooth rates' "
+            + "<h2>Sample efficiency</h2>"
+            + (f"<p><img alt='sample-efficiency curves: test MAE against frames, 95 % bands over seeds' "
+               f"src='data:image/png;base64,{curves}'></p><p>Test-set MAE at each evaluation during training "
+               f"(TensorBoard test/mae_deg) and the final one; several seeds: their mean on the union of their "
+               f"evaluation frames, the band the 95 % bootstrap interval of that mean.</p>" if curves else
+               "<p>No row has an evaluation history (runs' tb/ test/mae_deg): shipped agents and the reference "
+               "controller have none.</p>")
+            + f"<h2>Errors and saw-tooth</h2><p><img alt='per-trajectory test errors and saw-tooth rates' "
               f"src='data:image/png;base64,{_figure(rows)}'></p>")
-    texts = {"md": md, "csv": buf.getvalue(), "html": page}
+    texts = {"md": md, "csv": csv_text(rows), "html": page}
     paths = {k: out / f"leaderboard.{k}" for k in texts}
     replace_all([(paths[k], lambda tmp, text=texts[k]: tmp.write_text(text, encoding="utf-8")) for k in texts])
     return paths
-
-

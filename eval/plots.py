@@ -170,6 +170,26 @@ def _curves_figure(curves: list[tuple[str, dict]]):
     return fig
 
 
+def sample_efficiency_figure(panels: dict[str, list[tuple[str, dict]]]):
+    """Test MAE against frames, one panel per name in `panels`, each curve (label, {"frames", "mean", "lo", "hi"})
+    a line with its band (where lo/hi are finite: several seeds); the paper's PPO-4 accuracy as a dashed line."""
+    fig, axes = plt.subplots(1, len(panels), figsize=(6.5 * len(panels), 4.2), squeeze=False)
+    for ax, (name, curves) in zip(axes[0], panels.items()):
+        for label, c in curves:
+            line, = ax.plot(c["frames"], c["mean"], marker="o", ms=3, label=label)
+            ok = np.isfinite(c["lo"]) & np.isfinite(c["hi"])
+            if ok.any():
+                ax.fill_between(c["frames"][ok], c["lo"][ok], c["hi"][ok], color=line.get_color(), alpha=0.2)
+        ax.axhline(5.15, color="gray", ls="--", lw=1, label="paper PPO-4 (their model)")
+        ax.set(xlabel="training frames", ylabel="test-set MAE (deg)", title=f"sample efficiency, {name}",
+               yscale="log")
+        ax.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda x, _: f"{x / 1e6:g} M"))
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
 def plot_trajectory(specs: list[str], out: Path, task: str | None = None, trajectories: str = "test",
                     index: int = 0) -> list[Path]:
     """Per policy, one column: target and angle (top), each muscle's activation (bottom)."""
