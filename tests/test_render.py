@@ -148,3 +148,8 @@ def test_muscles_coloured_by_their_activation_ld_bundles_by_ld(tmp_path, monkeyp
         assert idle == [] and np.array_equal(rgba["ld1"], rgba["ld2"]) and np.array_equal(rgba["ld1"], rgba["ld3"])
     else:
         assert idle == ["isp", "dmi", "ld1", "ld2", "ld3"]
+
+
+def test_multisampling_is_off_by_default_and_an_option():
+    assert render_model.build_render_model(W, H).vis.quality.offsamples == 0
+    assert render_model.build_render_model(W, H, multisample=True).vis.quality.offsamples == render_model.MULTISAMPLES
