@@ -26,6 +26,7 @@ starts from a zero warmstart: against the numpy engine 2.5e-14 rad over a 20 s e
 """
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 
 import mujoco
@@ -149,6 +150,14 @@ class BatchSimulator:
     def close(self) -> None:
         self._rollout.close()
 
+    def own_models(self) -> list:
+        """One model per copy (copies of `self.model`, made on the first call), for parameters that differ between
+        copies (`shoulder_bench.randomization`); every later frame steps copy i with model i."""
+        if not self.__dict__.get("_own"):
+            self._models = [copy.copy(self.model) for _ in range(self.num)]
+            self._own = True
+        return self._models
+
     def acceleration(self, qpos: np.ndarray, qvel: np.ndarray, act) -> np.ndarray:
         """Joint accelerations (N, nv) at states (qpos, qvel) with the muscle forces of activations `act`.
 
@@ -187,24 +196,30 @@ class BatchSimulator:
         return qpos + dq * h, qvel + dv * h
 
     def frame_state(self, qpos: np.ndarray, qvel: np.ndarray, act=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Advance every copy by one 0.1 s frame at constant activations: (qpos (N, nq), qvel (N, nv), failed (N,)).
-        `act` is ignored without a law."""
+        """Advance every copy by one 0.1 s frame: (qpos (N, nq), qvel (N, nv), failed (N,)). `act`: activations
+        (N, n) constant over the frame, or (N, steps_per_frame, n), one row per physics step
+        (`shoulder_bench.physiology.frame_plan`); ignored without a law."""
         qpos = np.asarray(qpos, dtype=np.float64)
         qvel = np.asarray(qvel, dtype=np.float64)
         if qpos.shape != (self.num, self.nq) or qvel.shape != (self.num, self.nv):
             raise ValueError(f"qpos {qpos.shape} and qvel {qvel.shape}: expected ({self.num}, {self.nq}) and "
                              f"({self.num}, {self.nv})")
         self.bad = np.zeros(self.num, dtype=bool)
+        per_step = act is not None and np.ndim(act) == 3  # (N, steps_per_frame, n): one row per physics step
+        if per_step and np.shape(act)[1] != self.steps_per_frame:
+            raise ValueError(f"activations {np.shape(act)}: expected (N, n) or (N, {self.steps_per_frame}, n)")
         if self.engine == "mujoco":
-            return self._mujoco_frame(qpos, qvel, act)
-        for _ in range(self.steps_per_frame):
-            qpos, qvel = self.step(qpos, qvel, act)
+            return self._mujoco_frame(qpos, qvel, act, per_step)
+        for s in range(self.steps_per_frame):
+            qpos, qvel = self.step(qpos, qvel, act[:, s] if per_step else act)
         return qpos, qvel, self.bad
 
-    def _mujoco_frame(self, qpos, qvel, act):
+    def _mujoco_frame(self, qpos, qvel, act, per_step=False):
         """engine="mujoco": one `rollout` of steps_per_frame RK4 steps, the law in MuJoCo's callbacks."""
         if self.law is not None:
-            self._ctrl[:, :, self.columns] = np.asarray(act, dtype=np.float64)[:, None, self.law.muscle_of]
+            act = np.asarray(act, dtype=np.float64)
+            self._ctrl[:, :, self.columns] = act[:, :, self.law.muscle_of] if per_step else \
+                act[:, None, self.law.muscle_of]
         self._state[:, self._iq] = qpos
         self._state[:, self._iv] = qvel
         self._rollout.rollout(self._models, self._datas, self._state, self._ctrl, nstep=self.steps_per_frame,

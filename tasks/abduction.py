@@ -18,7 +18,7 @@ from dm_control.rl.control import PhysicsError
 from dm_env import specs
 
 from shoulder_bench import arm as arm_
-from shoulder_bench import conditions, protocol, statics, trajectory
+from shoulder_bench import conditions, physiology, protocol, randomization, statics, trajectory
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL, attach_law, install_callbacks, law_of
 from shoulder_bench.tasks import options as opt
 from shoulder_bench.tasks import sensing
@@ -35,6 +35,7 @@ class Physics(_Physics):
 
     crashed = False  # set when MuJoCo reported an instability during the last step
     _failed = False
+    plan = None  # (muscles, (nstep, n)): the activation of each physics step of the next `step` (physiology options)
 
     def _adr(self) -> tuple[int, int]:
         adr = self.__dict__.get("_elevation_adr")
@@ -73,9 +74,16 @@ class Physics(_Physics):
         self.data.qvel[:] = 0.0
 
     def step(self, nstep: int = 1) -> None:
-        """Step; a MuJoCo instability marks the physics as crashed instead of raising inside a training loop."""
+        """Step; a MuJoCo instability marks the physics as crashed instead of raising inside a training loop. With a
+        `plan` (set by the task for one frame), each physics step first gets its own activations."""
+        plan, self.plan = self.plan, None
         try:
-            super().step(nstep)
+            if plan is None:
+                super().step(nstep)
+                return
+            for k in range(nstep):
+                self.set_activations(plan[0], plan[1][k])
+                super().step(1)
         except PhysicsError:
             self.crashed = True
 
@@ -111,7 +119,7 @@ class Abduction(control.Task):
     def __init__(self, muscles, discrete=False, split="train", trajectory_=None, tracking_only=None,
                  alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", joint_damping=0.0,
                  delay_frames=0, obs_noise_deg=0.0, condition=None, tear_fraction=None, weakness_fraction=None,
-                 random=None, **unknown):
+                 activation_dynamics=False, randomize=None, fatigue=False, random=None, **unknown):
         super().__init__()
         opt.check_names(unknown)
         self.muscles = tuple(muscles)
@@ -132,6 +140,14 @@ class Abduction(control.Task):
         conditions.factors(condition, self.muscles, tear_fraction, weakness_fraction)
         self.condition = {k: v for k, v in (("condition", condition), ("tear_fraction", tear_fraction),
                                             ("weakness_fraction", weakness_fraction)) if v is not None}
+        # muscle physiology (shoulder_bench.physiology, shoulder_bench.randomization)
+        self.activation_dynamics = bool(opt.flag("activation_dynamics", activation_dynamics))
+        self.fatigue = physiology.fatigue_option(fatigue)
+        self.randomize = randomization.option(randomize)
+        self.physiology = self.activation_dynamics or self.fatigue is not None  # the per-step activation path
+        self.excitation = self.activation = self.fatigue_state = None  # (n,), (n,), (n, 3) with `physiology`
+        self.arm_draw: dict | None = None  # this episode's randomised arm (randomize)
+        self._nominal = None
         self.history: collections.deque | None = None  # the last delay_frames + 1 sensed states, oldest first
         self.noise_z: np.ndarray | None = None  # (1, 2) standard normals of the observation now (None: no noise)
         self.reseed(random)
@@ -144,6 +160,7 @@ class Abduction(control.Task):
         seed = opt.seed(seed)
         self.rng = np.random.default_rng(seed)
         self.noise_rng = sensing.noise_rng(seed)
+        self.randomize_rng = randomization.rng(seed)
 
     # --- dm_control Task API -------------------------------------------------------------------------------------
     def action_spec(self, physics):
@@ -170,6 +187,16 @@ class Abduction(control.Task):
         if self.init == "hold":
             physics.set_activations(self.muscles,
                                     statics.holding_activation(self._law(physics), self.target.angle_deg[0])[0])
+        if self.randomize is not None:
+            if self._nominal is None:
+                groups = [[physics.model.name2id(a, "actuator") for a in arm_.ACTUATORS[m]] for m in self.muscles]
+                self._nominal = randomization.Nominal(physics.model.ptr, groups)
+            self.arm_draw = randomization.draw(self.randomize_rng, self.randomize, len(self.muscles))
+            randomization.apply(physics.model.ptr, self._nominal, self.arm_draw)
+        if self.physiology:
+            self.activation = physics.data.ctrl[self._ids].copy()
+            self.excitation = self.activation.copy()
+            self.fatigue_state = None if self.fatigue is None else physiology.fresh_fatigue(self.activation)
         if self.delay_frames:
             self.history = collections.deque([self.sense(physics)] * (self.delay_frames + 1),
                                              maxlen=self.delay_frames + 1)
@@ -183,8 +210,23 @@ class Abduction(control.Task):
     def before_step(self, action, physics):
         """Validate, then apply: bad input raises ValueError before anything changes."""
         delta, sent = self.action_to_delta(action)
-        physics.set_activations(self.muscles, np.clip(physics.data.ctrl[self._ids] + delta, 0.0, 1.0))
         self.sent = sent
+        if not self.physiology:
+            physics.set_activations(self.muscles, np.clip(physics.data.ctrl[self._ids] + delta, 0.0, 1.0))
+            return
+        command = np.clip((self.excitation if self.activation_dynamics else self.activation) + delta, 0.0, 1.0)
+        steps = int(round(protocol.FRAME_S / physics.model.opt.timestep))
+        acting, a, state = physiology.frame_plan(
+            command[None], self.activation[None], None if self.fatigue_state is None else self.fatigue_state[None],
+            steps, float(physics.model.opt.timestep), self.activation_dynamics, self.fatigue)
+        physics.plan = (self.muscles, acting[0])
+        self.excitation, self.activation = command, a[0]
+        self.fatigue_state = None if state is None else state[0]
+
+    def activations_now(self, physics) -> np.ndarray:
+        """(n,) the muscles' activations as observed: the activation state with the physiology options, else the
+        activation in force (ctrl)."""
+        return self.activation.copy() if self.physiology else physics.data.ctrl[self._ids].copy()
 
     def action_to_delta(self, action) -> tuple[np.ndarray, np.ndarray]:
         """(applied change, change as sent) from an action; raises ValueError for NaN/inf or a wrong shape."""
@@ -200,7 +242,7 @@ class Abduction(control.Task):
 
     def sense(self, physics) -> np.ndarray:
         """(1, 2 + n): the true angle (deg), velocity (deg/s) and activations now."""
-        return sensing.state(physics.angle_deg(), physics.angular_velocity_deg(), physics.data.ctrl[self._ids])
+        return sensing.state(physics.angle_deg(), physics.angular_velocity_deg(), self.activations_now(physics))
 
     def draw_noise(self) -> None:
         """The noise of the observation of this frame: drawn once per reset and per step, whoever reads it."""
@@ -212,7 +254,7 @@ class Abduction(control.Task):
             old = self.history[0].copy()  # the observation must not alias the buffer
             angle, velocity, act = old[:, 0], old[:, 1], old[0, 2:]
         else:
-            angle, velocity, act = physics.angle_deg(), physics.angular_velocity_deg(), physics.data.ctrl[self._ids]
+            angle, velocity, act = physics.angle_deg(), physics.angular_velocity_deg(), self.activations_now(physics)
         angle, velocity = sensing.noisy(angle, velocity, self.obs_noise_deg, self.noise_z)
         obs = protocol.observation(angle, velocity, self.target.angle_deg[k], self.target.velocity_deg_s[k], act)
         return {key: v[0] for key, v in obs.items()}

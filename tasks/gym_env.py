@@ -60,10 +60,18 @@ class ShoulderEnv(gym.Env):
         return in_space(protocol.flatten(ts.observation), self.observation_space)
 
     def _info(self) -> dict:
-        physics = self.env.physics
-        return {"angle_deg": physics.angle_deg(), "target_deg": self.task.target_deg(),
-                "activations": physics.activations(self.task.muscles).copy(),
-                "crashed": bool(physics.failed())}
+        """The true state; with the physiology options also `excitations` (activation_dynamics), `fatigue` ((n, 3)
+        M_A, M_R, M_F) and `randomization` (the episode's draw: strength (n,), mass_scale, load_kg)."""
+        physics, task = self.env.physics, self.task
+        info = {"angle_deg": physics.angle_deg(), "target_deg": task.target_deg(),
+                "activations": task.activations_now(physics), "crashed": bool(physics.failed())}
+        if task.activation_dynamics:
+            info["excitations"] = task.excitation.copy()
+        if task.fatigue is not None:
+            info["fatigue"] = task.fatigue_state.copy()
+        if task.randomize is not None:
+            info["randomization"] = {k: np.copy(v) if k == "strength" else v for k, v in task.arm_draw.items()}
+        return info
 
     def reset(self, *, seed=None, options=None):
         seed = opt.seed(seed)

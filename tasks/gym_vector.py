@@ -9,7 +9,8 @@ Autoreset: gymnasium's `AutoresetMode.SAME_STEP`, as the rsl-rl VecEnv underneat
 episode returns that episode's last reward, termination and truncation and already the first observation of the next
 episode; the episode's last observation and info are in `infos["final_obs"][i]` and `infos["final_info"]` (masks
 `infos["_final_obs"]`, `infos["_final_info"]`), as `SyncVectorEnv(..., autoreset_mode=AutoresetMode.SAME_STEP)` gives
-them. Step infos: `angle_deg`, `target_deg`, `activations`, `crashed` per copy (as the single env's `info`).
+them. Step infos: `angle_deg`, `target_deg`, `activations`, `crashed` per copy (as the single env's `info`); with
+the physiology options also `excitations`, `fatigue` and the randomised arm `strength`, `mass_scale`, `load_kg`.
 """
 from __future__ import annotations
 
@@ -69,8 +70,10 @@ class ShoulderVectorEnv(VectorEnv):
             infos["final_obs"] = np.full(self.num_envs, None, dtype=object)
             infos["final_obs"][np.flatnonzero(done)] = list(final)
             infos["_final_obs"] = done.copy()
-            infos["final_info"] = _masked({"angle_deg": b.last_angle_deg, "target_deg": b.last_target_deg,
-                                           "activations": b.last_activation, "crashed": terminated}, done)
+            last = {"angle_deg": b.last_angle_deg, "target_deg": b.last_target_deg, "activations": b.last_activation,
+                    "crashed": terminated}
+            last.update(_physiology(b, b.last_excitation, b.last_fatigue, *b.last_draws))
+            infos["final_info"] = _masked(last, done)
             infos["_final_info"] = done.copy()
         return self._in_space(raw), np.asarray(b.last_reward, dtype=np.float64).copy(), terminated, truncated, infos
 
@@ -83,11 +86,26 @@ class ShoulderVectorEnv(VectorEnv):
         `final_info`)."""
         b = self.batched
         target = b.targets[np.arange(self.num_envs), np.minimum(b.frames, b.episode_frames)]
-        return _masked({"angle_deg": np.degrees(b.q), "target_deg": target, "activations": b.act.copy(),
-                        "crashed": np.zeros(self.num_envs, dtype=bool)}, np.ones(self.num_envs, dtype=bool))
+        values = {"angle_deg": np.degrees(b.q), "target_deg": target, "activations": b.act.copy(),
+                  "crashed": np.zeros(self.num_envs, dtype=bool)}
+        values.update(_physiology(b, b.excitation, b.fatigue_state, b.draw_strength, b.draw_mass, b.draw_load))
+        return _masked(values, np.ones(self.num_envs, dtype=bool))
 
     def close_extras(self, **kwargs) -> None:
         self.batched.close()
+
+
+def _physiology(b, excitation, fatigue, strength, mass, load) -> dict:
+    """The physiology options' infos per copy, as the single env's: excitations, fatigue (N, n, 3) and the
+    randomised arm (strength (N, n), mass_scale, load_kg), each only with its option."""
+    out = {}
+    if b.task.activation_dynamics:
+        out["excitations"] = excitation
+    if b.task.fatigue is not None:
+        out["fatigue"] = fatigue
+    if b.task.randomize is not None:
+        out.update(strength=strength, mass_scale=mass, load_kg=load)
+    return out
 
 
 def _masked(values: dict, mask: np.ndarray) -> dict:

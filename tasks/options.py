@@ -32,19 +32,27 @@ OPTIONS = {
     "tear_fraction": "None (0.5) or a number in (0, 1): ssp_partial_tear's fraction of supraspinatus strength lost",
     "weakness_fraction": "None (0.5) or a number in (0, 1): deltoid_weakness's fraction of middle-deltoid strength "
                          "lost",
+    "activation_dynamics": "False or True: the command is the neural excitation, the activation follows Thelen "
+                           "2003's first-order dynamics (15 ms / 50 ms) inside the physics step",
+    "randomize": "None/False, True (strength=0.3, mass=0.1, load=0:2) or a dict / text 'strength=X,mass=Y,load=LO:HI' "
+                 "(per-episode muscle strength x U[1-X, 1+X] per muscle, humerus mass x U[1-Y, 1+Y], a load of "
+                 "U[LO, HI] kg at the elbow; keys left out are not randomised)",
+    "fatigue": "False, True or a dict of 3CC-r parameters F, R, r, LD, LR: per-muscle fatigue, the residual "
+               "capacity 1 - M_F caps the activation",
 }
 
 # each option's default, as `shoulder-bench tasks --options` shows it (None where the task decides)
 DEFAULTS = {"split": "train", "seed": None, "trajectory": None, "muscle_model": DEFAULT_MUSCLE_MODEL,
             "alpha": protocol.DEFAULT_ALPHA, "omega_max": protocol.DEFAULT_OMEGA_MAX, "tracking_only": None,
             "init": "hold", "joint_damping": 0.0, "delay_frames": 0, "obs_noise_deg": 0.0, "condition": None,
-            "tear_fraction": None, "weakness_fraction": None}
+            "tear_fraction": None, "weakness_fraction": None, "activation_dynamics": False, "randomize": None,
+            "fatigue": False}
 
 
 # the options a command line may set with --option KEY=VALUE (split, seed, trajectory and muscle model have flags of
 # their own or are the command's to choose)
 COMMAND_LINE = ("alpha", "omega_max", "tracking_only", "init", "joint_damping", "delay_frames", "obs_noise_deg",
-                "condition", "tear_fraction", "weakness_fraction")
+                "condition", "tear_fraction", "weakness_fraction", "activation_dynamics", "randomize", "fatigue")
 
 
 def assignments(pairs, flag: str = "--option", valid=COMMAND_LINE) -> dict:

@@ -11,7 +11,7 @@ from rsl_rl.env import VecEnv as _RslVecEnv
 from tensordict import TensorDict
 
 from shoulder_bench import arm as arm_
-from shoulder_bench import protocol, statics
+from shoulder_bench import physiology, protocol, randomization, statics
 from shoulder_bench import trajectory as targets
 from shoulder_bench.arm import harden_couplings
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
@@ -54,9 +54,13 @@ class VecEnv(_RslVecEnv):
         self.arm = arm_.arm()
         self.law = self.arm.load_law(muscle_model, self.muscles, **self.task.condition)  # the task's condition
         # MuJoCo's own RK4 with the compiled callbacks (one rollout per frame), where they are available
-        self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread, path=arm_.MODEL_FILE,
-                                  prepare=harden_couplings, engine=batch_engine())
+        # randomize: one model per copy, compiled without the textures (randomization.physics_only_xml)
+        source = {"path": arm_.MODEL_FILE} if self.task.randomize is None else {
+            "xml": randomization.physics_only_xml(arm_.MODEL_FILE)}
+        self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread, prepare=harden_couplings,
+                                  engine=batch_engine(), **source)
         self.sim.model.dof_damping[self.sim.dadr] = self.task.joint_damping
+        self._setup_physiology(seed)
         self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
         # what the agent senses (shoulder_bench.tasks.sensing), as the single env seeded seed + i
         self.delay_frames, self.obs_noise_deg = self.task.delay_frames, self.task.obs_noise_deg
@@ -78,6 +82,35 @@ class VecEnv(_RslVecEnv):
         self._abs_err = np.zeros(self.num_envs)
         self._reset(np.arange(self.num_envs))
 
+    def _setup_physiology(self, seed) -> None:
+        """State of the physiology options (`shoulder_bench.physiology`, `shoulder_bench.randomization`), as the single
+        env seeded seed + i keeps it for copy i."""
+        t = self.task
+        self.physiology = t.physiology
+        self.excitation = np.zeros((self.num_envs, self.n))  # activation_dynamics: the command; else unused
+        self.fatigue_state = np.zeros((self.num_envs, self.n, 3))  # fatigue: (M_A, M_R, M_F) per muscle
+        self.rand_rngs = [randomization.rng(None if seed is None else seed + i) for i in range(self.num_envs)]
+        self.draw_strength = np.ones((self.num_envs, self.n))  # randomize: each copy's episode draw
+        self.draw_mass = np.ones(self.num_envs)
+        self.draw_load = np.zeros(self.num_envs)
+        if t.randomize is not None:
+            names = [self.sim.model.actuator(i).name for i in range(self.sim.model.nu)]
+            groups = [[names.index(a) for a in arm_.ACTUATORS[m]] for m in self.muscles]
+            self._nominal = randomization.Nominal(self.sim.model, groups)
+            self.sim.own_models()
+
+    def draws(self, i: int) -> dict | None:
+        """Copy i's randomised arm of this episode (randomize; None otherwise), as the single env's `arm_draw`."""
+        if self.task.randomize is None:
+            return None
+        return {"strength": self.draw_strength[i].copy(), "mass_scale": float(self.draw_mass[i]),
+                "load_kg": float(self.draw_load[i])}
+
+    def _apply_draws(self, idx) -> None:
+        models = self.sim.own_models()
+        for i in idx:
+            randomization.apply(models[i], self._nominal, self.draws(i))
+
     # --- episodes ---------------------------------------------------------------------------------------------------
     def _reset(self, idx: np.ndarray) -> None:
         for i in idx:
@@ -93,6 +126,15 @@ class VecEnv(_RslVecEnv):
         if self.sim.carry_warmstart:
             self.sim.warmstart[idx] = 0.0  # as mj_resetData
         self.act[idx] = statics.holding_activation(self.law, start) if self.task.init == "hold" else 0.0
+        if self.task.randomize is not None:
+            for i in idx:
+                d = randomization.draw(self.rand_rngs[i], self.task.randomize, self.n)
+                self.draw_strength[i], self.draw_mass[i], self.draw_load[i] = d["strength"], d["mass_scale"], \
+                    d["load_kg"]
+            self._apply_draws(idx)
+        if self.physiology:
+            self.excitation[idx] = self.act[idx]
+            self.fatigue_state[idx] = physiology.fresh_fatigue(self.act[idx])
         self.frames[idx] = 0
         if self.delay_frames:
             self.obs_history[idx] = self._sense()[idx][:, None, :]
@@ -151,8 +193,17 @@ class VecEnv(_RslVecEnv):
     def step(self, actions) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
         a = actions.detach().cpu().numpy() if torch.is_tensor(actions) else np.asarray(actions)
         applied, sent = protocol.to_delta(a, self.n, self.discrete, batch=self.num_envs)  # raises before any change
-        self.act = np.clip(self.act + applied, 0.0, 1.0)
-        self.qpos, self.qvel, bad = self.sim.frame_state(self.qpos, self.qvel, self.act)
+        if self.physiology:  # the activations of each physics step (shoulder_bench.physiology)
+            t = self.task
+            command = np.clip((self.excitation if t.activation_dynamics else self.act) + applied, 0.0, 1.0)
+            acting, self.act, state = physiology.frame_plan(command, self.act, self.fatigue_state,
+                                                            self.sim.steps_per_frame, self.sim.h,
+                                                            t.activation_dynamics, t.fatigue)
+            self.excitation = command
+            self.fatigue_state = self.fatigue_state if state is None else state
+        else:
+            self.act = acting = np.clip(self.act + applied, 0.0, 1.0)
+        self.qpos, self.qvel, bad = self.sim.frame_state(self.qpos, self.qvel, acting)
         q = self.q
         self.frames += 1
         if self.delay_frames:
@@ -172,6 +223,8 @@ class VecEnv(_RslVecEnv):
         self.last_reward = reward  # float64; the returned tensor is a float32 cast
         self.last_angle_deg, self.last_target_deg, self.last_crashed = angle, target_now, crashed
         self.last_activation = self.act.copy()  # in force during this frame (before any auto-reset)
+        self.last_excitation, self.last_fatigue = self.excitation.copy(), self.fatigue_state.copy()
+        self.last_draws = (self.draw_strength.copy(), self.draw_mass.copy(), self.draw_load.copy())
         self._return += reward
         self._abs_err += np.where(crashed, 0.0, np.abs(angle - target_now))
         time_out = (self.frames >= self.episode_frames) & ~crashed
@@ -195,6 +248,7 @@ class VecEnv(_RslVecEnv):
     # --- checkpoints --------------------------------------------------------------------------------------------------
     _STATE = ("targets", "target_vel", "frames", "qpos", "qvel", "act", "_return", "_abs_err")
     _SENSING = ("obs_history", "noise_z")  # states saved before these options existed lack them: defaults only
+    _PHYSIOLOGY = ("excitation", "fatigue_state", "draw_strength", "draw_mass", "draw_load")  # likewise
 
     def state_dict(self) -> dict:
         """Everything that decides the copies' future: physics state (with the constraint solver's warmstart),
@@ -206,7 +260,12 @@ class VecEnv(_RslVecEnv):
                 "episode_length_buf": self.episode_length_buf.clone(), "finished": list(self._finished),
                 "warmstart": warm, "delay_frames": self.delay_frames, "obs_noise_deg": self.obs_noise_deg,
                 "noise_rngs": [r.bit_generator.state for r in self.noise_rngs],
-                **{key: getattr(self, key).copy() for key in self._STATE + self._SENSING}}
+                "physiology": self._physiology_key(), "rand_rngs": [r.bit_generator.state for r in self.rand_rngs],
+                **{key: getattr(self, key).copy() for key in self._STATE + self._SENSING + self._PHYSIOLOGY}}
+
+    def _physiology_key(self) -> str:
+        t = self.task
+        return repr((t.activation_dynamics, t.fatigue, t.randomize))
 
     def load_state_dict(self, state: dict) -> None:
         if (state["name"], state["num_envs"]) != (self.name, self.num_envs):
@@ -217,6 +276,10 @@ class VecEnv(_RslVecEnv):
             raise ValueError(f"env state saved with delay_frames={saved[0]}, obs_noise_deg={saved[1]:g} cannot be "
                              f"restored into an env with delay_frames={self.delay_frames}, "
                              f"obs_noise_deg={self.obs_noise_deg:g}")
+        saved = state.get("physiology", repr((False, None, None)))
+        if saved != self._physiology_key():
+            raise ValueError(f"env state saved with physiology (activation_dynamics, fatigue, randomize) = {saved} "
+                             f"cannot be restored into an env with {self._physiology_key()}")
         missing = [k for k in self._STATE if k not in state]
         if missing:
             raise ValueError(f"env state lacks {missing}: it was saved by another version of the model")
@@ -224,8 +287,12 @@ class VecEnv(_RslVecEnv):
             rng.bit_generator.state = saved_rng
         for rng, saved_rng in zip(self.noise_rngs, state.get("noise_rngs", [])):
             rng.bit_generator.state = saved_rng
-        for key in self._STATE + tuple(k for k in self._SENSING if k in state):
+        for rng, saved_rng in zip(self.rand_rngs, state.get("rand_rngs", [])):
+            rng.bit_generator.state = saved_rng
+        for key in self._STATE + tuple(k for k in self._SENSING + self._PHYSIOLOGY if k in state):
             setattr(self, key, np.array(state[key], copy=True))
+        if self.task.randomize is not None:
+            self._apply_draws(range(self.num_envs))
         if self.sim.warmstart is not None and state.get("warmstart") is not None:
             self.sim.warmstart[:] = state["warmstart"]
         self.episode_length_buf = state["episode_length_buf"].clone().to(self.device)
