@@ -27,6 +27,12 @@ def note_accuracy(run, mae_deg: float, training_s: float) -> None:
         run.to_accuracy.setdefault(key, None)
 
 
+def curve_point(frames: int, training_s: float, m: dict) -> dict:
+    """One test-set evaluation as metrics.json's `evaluations` lists it."""
+    return {"frames": int(frames), "training_s": round(training_s, 3), "mae_deg": m["mae_deg"],
+            "rmse_deg": m["rmse_deg"], "crashes": m["crashes"]}
+
+
 def timed_evaluate(run, *args, **kwargs) -> tuple[dict, float]:
     """`evaluate(...)`, its wall time added to run.eval_s; also the training wall time before it."""
     from shoulder_bench.eval.evaluate import evaluate
@@ -39,9 +45,12 @@ def timed_evaluate(run, *args, **kwargs) -> tuple[dict, float]:
 
 def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: Path | None = None,
           resume: bool = False, config: Path | None = None, muscle_model: str | None = None,
-          eval_every: int = 100_000, options: dict | None = None) -> dict:
+          eval_every: int = 100_000, options: dict | None = None, init_from: str | None = None) -> dict:
     """Train, evaluate on the fixed test set, write the run folder; returns metrics.json's content. options: task
-    options (delay_frames, obs_noise_deg, joint_damping, ...) the run trains and is evaluated with."""
+    options (delay_frames, obs_noise_deg, joint_damping, ...) the run trains and is evaluated with. init_from: a
+    fine-tune, starting from this policy (policy.pt, a run folder, pretrained:NAME; `plan.init_source`), recorded
+    in the run's identity as `init_from`; its frames count from 0. metrics.json's `evaluations` is every test-set
+    evaluation (frames, training wall s, MAE, RMSE, crashes)."""
     import shoulder_bench
     from shoulder_bench.train.config import read_overrides
     from shoulder_bench.train.policy import save_policy
@@ -53,6 +62,11 @@ def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: P
     module, cfg, run_config = plan(task, algo, frames, seed, overrides, muscle_model,
                                    source=f"config file {config}" if config else "config", options=options)
     options = run_config["options"]
+    init = None
+    if init_from is not None:
+        from shoulder_bench.train.plan import init_source
+
+        run_config["init_from"], init = init_source(init_from, task, algo, run_config["muscle_model"])
     eval_every = count("--eval-every", eval_every)
     seed, frames, muscle_model = run_config["seed"], run_config["frames"], run_config["muscle_model"]
     if frames != run_config["frames_asked"]:
@@ -87,21 +101,25 @@ def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: P
                 run.paper_frames = run.frames
                 run.writer.add_scalar("test/wall_s_to_paper_accuracy", run.elapsed(), run.frames)
             note_accuracy(run, m["mae_deg"], training_s)
+            run.evaluations.append(curve_point(run.frames, training_s, m))
 
         def evaluate_every(now: int) -> int:
             return (now // eval_every + 1) * eval_every
 
         run.start_progress(frames)
         try:
-            policy = module.train(run, venv, cfg, frames, evaluate_every, on_eval)
+            policy = module.train(run, venv, cfg, frames, evaluate_every, on_eval,
+                                  init=init if run.checkpoint is None else None)
         finally:
             venv.close()
         final, training_s = timed_evaluate(run, policy, task, test, muscle_model=muscle_model, options=options)
         note_accuracy(run, final["mae_deg"], training_s)  # the final evaluation counts too
+        run.evaluations.append(curve_point(run.frames, training_s, final))
         metrics = {k: final[k] for k in ("mae_deg", "rmse_deg", "crashes", "n_trajectories")}
         metrics["per_trajectory"] = final["per_trajectory"]
         save_policy(policy, run.dir / "policy.pt",
                     {"task": task, "algo": algo, "seed": seed, "frames": run.frames, "muscle_model": muscle_model,
                      "options": run_config["options"], "model_version": run_config["model_version"],
-                     "test": {k: metrics[k] for k in ("mae_deg", "rmse_deg", "crashes")}})
+                     "test": {k: metrics[k] for k in ("mae_deg", "rmse_deg", "crashes")}}
+                    | ({"init_from": run_config["init_from"]} if "init_from" in run_config else {}))
         return run.finish(metrics)

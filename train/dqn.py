@@ -367,9 +367,12 @@ class DQNAgent:
 
 
 # --- the runner's entry (shoulder-bench train --algo dqn|bdq) ---------------------------------------------------------
-def train(run, venv, cfg: DQNConfig, frames: int, evaluate_every, on_eval) -> torch.nn.Module:
+def train(run, venv, cfg: DQNConfig, frames: int, evaluate_every, on_eval,
+          init: dict | None = None) -> torch.nn.Module:
     """Train until `run.frames` reaches `frames`, logging, checkpointing and evaluating through `run`; returns the
-    scripted greedy policy of the final agent (no checkpoint selection on the test set)."""
+    scripted greedy policy of the final agent (no checkpoint selection on the test set). init: the state a fresh
+    fine-tune starts from (`plan.init_source`): the networks (online, target; and the optimiser from a checkpoint)
+    with their fitted normaliser; the replay buffer, counters and exploration schedule start anew."""
     n = venv.num_actions
     agent = DQNAgent(cfg, obs_dim=venv.get_observations()["policy"].shape[1], n_branches=n)
     if run.checkpoint is not None:
@@ -378,6 +381,20 @@ def train(run, venv, cfg: DQNConfig, frames: int, evaluate_every, on_eval) -> to
         except (KeyError, RuntimeError, TypeError) as exc:
             raise ValueError(f"{run.dir / 'checkpoint.pt'} holds no DQN state this config can load ({exc}); delete "
                              f"it to start over") from exc
+    elif init is not None:
+        try:
+            if "checkpoint" in init:
+                saved = init["checkpoint"]["agent"]
+                agent.q.load_state_dict(saved["q"])
+                agent.q_target.load_state_dict(saved["q_target"])
+                agent.optim.load_state_dict(saved["optim"])
+            else:
+                agent.q.load_state_dict({k[2:]: v for k, v in init["policy"].items() if k.startswith("q.")})
+                agent.q_target.load_state_dict(agent.q.state_dict())
+        except (KeyError, RuntimeError, TypeError, ValueError) as exc:
+            raise ValueError(f"the initial policy holds no Q-network this config can load ({exc}); a fine-tune keeps "
+                             f"the network of the policy it starts from (hidden, branching)") from exc
+        agent.normalizer_fitted = True  # the initial network's normaliser, not refitted on the new warm-up data
     next_eval = [evaluate_every(run.frames)]
 
     def on_log(info: dict) -> None:

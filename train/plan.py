@@ -103,3 +103,36 @@ def finished_metrics(out: Path, config: dict) -> dict | None:
     if identity_of(recorded) != identity_of(config):
         check_same_run(recorded, config, Path(out))  # names the field
     return metrics
+
+
+def init_source(spec: str, task: str, algo: str, muscle_model: str) -> tuple[dict, dict]:
+    """What a fine-tune starts from, checked before any work: (the record its identity keeps as `init_from`, the
+    state to load). `spec` is an exported policy (policy.pt, a run folder, `pretrained:NAME`) of the same task,
+    algorithm and muscle model. From a finished run folder whose checkpoint.pt holds the policy's state (same frame
+    count), the algorithm's whole state is loaded (PPO: actor with its action std, critic, optimiser; DQN/BDQ: online
+    and target networks, optimiser; not the replay buffer or the counters); otherwise the policy's network alone
+    (PPO: the actor and its observation normaliser, which the critic's normaliser also starts from; the action std is
+    the config's init_std and the critic is new; DQN/BDQ: the Q-network, as online and target network, with its
+    normaliser fitted). The fine-tune's frames count from 0; the record names the source and its SHA-256."""
+    import hashlib
+
+    from shoulder_bench.train.policy import load_policy, resolve
+
+    path = resolve(spec)
+    policy, meta = load_policy(spec)
+    for key, want in (("task", task), ("algo", algo), ("muscle_model", muscle_model)):
+        if meta.get(key) != want:
+            raise ValueError(f"--init-from {spec}: a policy of {key} {meta.get(key)!r}; a fine-tune of this run needs "
+                             f"one of {key} {want!r}")
+    record = {"from": str(spec), "sha256": hashlib.sha256(path.read_bytes()).hexdigest(), "frames": meta.get("frames"),
+              "options": meta.get("options") or {}, "loads": "policy"}
+    state = {"policy": {k: v.detach().clone() for k, v in policy.state_dict().items()}}
+    ckpt_path = Path(spec) / "checkpoint.pt" if Path(spec).is_dir() else path.with_name("checkpoint.pt")
+    if ckpt_path.is_file():
+        from shoulder_bench.train.run import load_checkpoint
+
+        ckpt = load_checkpoint(ckpt_path.parent)
+        if ckpt["frames"] == meta.get("frames") and ckpt["config"].get("algo") == algo:
+            record.update(loads="checkpoint", checkpoint_sha256=hashlib.sha256(ckpt_path.read_bytes()).hexdigest())
+            state["checkpoint"] = ckpt["state"]
+    return record, state

@@ -120,8 +120,10 @@ def rsl_config(cfg: PPOConfig, n_muscles: int) -> dict:
     }
 
 
-def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval) -> torch.nn.Module:
-    """Train until `run.frames` reaches `frames`; returns the exported (scripted) policy."""
+def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval,
+          init: dict | None = None) -> torch.nn.Module:
+    """Train until `run.frames` reaches `frames`; returns the exported (scripted) policy. init: the state a fresh
+    fine-tune starts from (`plan.init_source`)."""
     env = ScaledActions(venv, cfg.reward_scale, cfg.error_features)
     with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints the networks; the config already records them
         runner = OnPolicyRunner(env, rsl_config(cfg, venv.num_actions), log_dir=None, device="cpu")
@@ -133,6 +135,8 @@ def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval) -> to
         except (KeyError, RuntimeError, TypeError) as exc:
             raise ValueError(f"{run.dir / 'checkpoint.pt'} holds no PPO state this config can load ({exc}); delete "
                              f"it to start over") from exc
+    elif init is not None:
+        load_init(alg, init)
     obs = env.get_observations()
     alg.train_mode()
     per_iteration = frames_per_iteration(cfg)
@@ -160,6 +164,30 @@ def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval) -> to
         if iteration % cfg.checkpoint_every == 0 or run.frames >= frames:
             run.save_checkpoint({"alg": alg.save(), "torch_rng": torch.get_rng_state()})
     return export(alg, cfg.error_features)
+
+
+def load_init(alg, init: dict) -> None:
+    """A fine-tune's starting state (`plan.init_source`): the whole PPO state of a checkpoint, or an exported policy's
+    actor and observation normaliser (the critic's normaliser starts from the same statistics; the action std is the
+    config's init_std)."""
+    try:
+        if "checkpoint" in init:
+            alg.load(init["checkpoint"]["alg"], None, True)
+            return
+        actor = {}
+        for key, value in init["policy"].items():  # ScaledPolicy: actor.<net>, or actor.1.<net> after ErrorFeatures
+            if key.startswith("actor."):
+                key = key[len("actor."):]
+                actor[key[2:] if key.startswith("1.") else key] = value
+        missing, unexpected = alg.get_policy().load_state_dict(actor, strict=False)
+        if unexpected or any("distribution" not in k for k in missing):
+            raise RuntimeError(f"missing {missing}, unexpected {unexpected}")
+        norm = {k[len("obs_normalizer."):]: v for k, v in actor.items() if k.startswith("obs_normalizer.")}
+        if norm:
+            alg._raw_critic.obs_normalizer.load_state_dict(norm)
+    except (KeyError, RuntimeError, TypeError) as exc:
+        raise ValueError(f"the initial policy holds no PPO actor this config can load ({exc}); a fine-tune keeps the "
+                         f"network of the policy it starts from (hidden_dims, error_features)") from exc
 
 
 def export(alg, error_features: bool = False) -> torch.nn.Module:

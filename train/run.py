@@ -1,12 +1,13 @@
 """A training run's folder: `runs/<task>/<algo>/<seed>/` with the resolved config, TensorBoard events, the latest
 checkpoint (written atomically), the exported policy and `metrics.json`.
 
-A run is defined by its identity (`IDENTITY`: task, algorithm, seed, muscle model, task options, model version and
-the algorithm's resolved config), fixed when it starts; `--resume` refuses any change to it, naming the field, and
-only the frame budget may grow. One process writes a folder at a time: `Run` holds an OS file lock on `<run>/.lock`
-(released by the OS when the process ends, so a crashed run leaves no stale lock). A run that fails or is interrupted
-before its first checkpoint leaves nothing behind; after it, the checkpoint stays for `--resume`, and the TensorBoard
-events logged past the checkpoint are dropped when the run resumes.
+A run is defined by its identity (`IDENTITY`: task, algorithm, seed, muscle model, task options, model version, the
+algorithm's resolved config and, for a fine-tune, the state it starts from, `init_from`: `plan.init_source`), fixed
+when it starts; `--resume` refuses any change to it, naming the field, and only the frame budget may grow. One
+process writes a folder at a time: `Run` holds an OS file lock on `<run>/.lock` (released by the OS when the process
+ends, so a crashed run leaves no stale lock). A run that fails or is interrupted before its first checkpoint leaves
+nothing behind; after it, the checkpoint stays for `--resume`, and the TensorBoard events logged past the checkpoint
+are dropped when the run resumes.
 
 Wall time: `elapsed()` is the run's wall clock since it started, summed over its attempts (a resume continues from
 the checkpoint's count; the time between the kill and the resume, and each process's start-up before the folder is
@@ -31,7 +32,7 @@ from tqdm import tqdm
 
 CHECKPOINT = "checkpoint.pt"
 LOCK = ".lock"
-IDENTITY = ("task", "algo", "seed", "muscle_model", "options", "model_version", "config")
+IDENTITY = ("task", "algo", "seed", "muscle_model", "options", "model_version", "config", "init_from")
 BUDGET_FREE = ("frames",)  # algorithm config fields that are the run's budget, not its identity (DQN's `frames`)
 
 
@@ -152,6 +153,8 @@ class Run:
         self.eval_s = float(ckpt.get("eval_s", 0.0))  # wall time spent in test-set evaluations
         # first evaluation at or below each accuracy threshold: {"2.0": {"frames", "wall_s"} or None, ...}
         self.to_accuracy = dict(ckpt.get("to_accuracy") or {})
+        # every test-set evaluation: {"frames", "training_s", "mae_deg", "rmse_deg", "crashes"} (the learning curve)
+        self.evaluations = list(ckpt.get("evaluations") or ())
         # events logged after the checkpoint (steps > its frame count) belong to the lost attempt: purge them
         self.writer = SummaryWriter(str(self.dir / "tb"), purge_step=self.frames + 1 if self.frames else None)
         self._t0 = time.perf_counter() - self.wall
@@ -193,7 +196,7 @@ class Run:
             state = {**state, "env": self.env.state_dict()}
         torch.save({"frames": self.frames, "config": self.config, "state": state, "wall_s": self.elapsed(),
                     "frames_to_paper_accuracy": self.paper_frames, "eval_s": self.eval_s,
-                    "to_accuracy": self.to_accuracy, "returns": list(self.returns),
+                    "to_accuracy": self.to_accuracy, "evaluations": self.evaluations, "returns": list(self.returns),
                     "np_rng": np.random.get_state()}, tmp)
         os.replace(tmp, path)
         self.saved = True
@@ -227,6 +230,6 @@ class Run:
     def finish(self, metrics: dict) -> dict:
         metrics = {**metrics, "frames": self.frames, "wall_s": round(self.elapsed(), 2),
                    "eval_s": round(self.eval_s, 2), "frames_to_paper_accuracy": self.paper_frames,
-                   "to_accuracy": self.to_accuracy}
+                   "to_accuracy": self.to_accuracy, "evaluations": self.evaluations}
         write_json(self.dir / "metrics.json", metrics)
         return metrics

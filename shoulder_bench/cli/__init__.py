@@ -13,7 +13,8 @@ import threading
 COMMANDS = ["shoulder_bench.cli.tasks", "shoulder_bench.cli.bench", "shoulder_bench.cli.train",
             "shoulder_bench.cli.reproduce", "shoulder_bench.cli.sweep", "shoulder_bench.cli.plots",
             "shoulder_bench.cli.leaderboard", "shoulder_bench.cli.render", "shoulder_bench.cli.fem",
-            "shoulder_bench.cli.validate", "shoulder_bench.cli.condition"]
+            "shoulder_bench.cli.validate", "shoulder_bench.cli.condition",
+            "shoulder_bench.cli.surgery"]
 
 
 def build_parser() -> argparse.ArgumentParser:
