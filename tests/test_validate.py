@@ -379,7 +379,7 @@ def test_v2_command_end_to_end(tmp_path, capsys, v2_report):
     lines = out.out.splitlines()
     failed = sum(not t["passed"] for t in report["targets"])
     assert rc == (1 if failed else 0) and sum(x.startswith("[FAIL]") for x in lines) == failed
-    assert "close to a tautology" in out.out and "tasks' plane not chosen yet" not in out.out
+    assert "close to tautologies" in out.out and "tasks' plane not chosen yet" not in out.out
     assert "not used by the tasks" not in out.out and "models/shoulder_v2_task.xml" in out.out
     fem = [x for x in lines if x.startswith("       FEM tables (the tasks' muscles), shown, no target: ")]
     assert len(fem) == len(validate_v2.FORCE_IDS)

@@ -16,7 +16,8 @@ What comes from where (all read by `shoulder_bench.authoring.mobl_data` from `mo
 - joint equality constraints with MyoArm's polycoef (`girdle_coupling.csv`): the girdle rhythm driven by
   shoulder_elv, and shoulder1_r2 = -elv_angle;
 - sites, wrap geoms (MyoArm's spheres and cylinders; its spheres are its stand-ins for MoBL's ellipsoids) and side
-  sites of SUPSP, INFSP, DELT2, LAT1-3 as spatial tendons ssp, isp, dmi, ld1, ld2, ld3;
+  sites of INFSP, DELT2, LAT1-3 as spatial tendons isp, dmi, ld1, ld2, ld3; ssp is the MoBL-ARMS parent's own SUPSP
+  (three fixed points and its one wrap sphere, `mobl_data.PATH_SOURCE`, `models/reference/mobl_arms_parent_paths.csv`);
 - the humerus inertial (`humerus_inertia.csv`). The girdle and phantom bodies get a 0.1 g placeholder (MuJoCo needs
   mass on moving bodies; MoBL's girdle masses are not in the reference data);
 - visual geoms only: MoBL's `Thorax` wrap ellipsoid as the rib cage, a capsule clavicle from the SC to the AC joint,
@@ -185,8 +186,10 @@ def _lock(frames: dict, joints: list, locked: dict[str, float]) -> tuple[dict, l
 
 
 def model_xml(clavicle: str = "mobl", folder: Path | None = None, locked_plane_deg: float | None = None,
-              dynamics: bool = False, actuators: bool = False, scene: bool = False) -> str:
-    """The v2 MJCF. `clavicle="myoarm"` puts the clavicle where MyoArm has it (for the reconstruction test only).
+              dynamics: bool = False, actuators: bool = False, scene: bool = False, paths: str = "v2") -> str:
+    """The v2 MJCF. `clavicle="myoarm"` puts the clavicle where MyoArm has it and `paths="myoarm"` gives every
+    tendon MyoArm's path (ssp's too; v2's ssp is the parent's, `mobl_data.PATH_SOURCE`): both for the
+    reconstruction tests only.
 
     `locked_plane_deg`: the locked 1-DOF variant the paper's tasks run on: elevation (`shoulder_elv`) the only GH
     coordinate, in the plane of elevation `locked_plane_deg` (0 = coronal), axial rotation 0. `elv_angle`,
@@ -210,7 +213,7 @@ def model_xml(clavicle: str = "mobl", folder: Path | None = None, locked_plane_d
 
     `scene=True`: what rendering needs (`SCENE`): sky, floor, lights and the cameras `front` and `back`, v1's
     (models/scene.xml) framed on this model's shoulder and girdle. Visual only: no effect on the dynamics."""
-    frames, joints, paths = D.body_frames(folder), D.joints(folder), D.muscle_paths(folder)
+    frames, joints, paths = D.body_frames(folder), D.joints(folder), D.muscle_paths(folder, paths)
     D.check_clavicle_parallel(folder)
     if clavicle not in ("mobl", "myoarm"):
         raise ValueError(f"clavicle must be 'mobl' or 'myoarm', not {clavicle!r}")

@@ -8,7 +8,10 @@ shared README documents how they were extracted from MyoHub/myo_sim @ 2cef885 an
   `body_frame` row gives MoBL's sternoclavicular (SC) joint location in the thorax frame;
 - `coordinate_definitions.csv`: hinge axes (in the child body's frame), order and ranges of the `myoarm` coordinates;
 - `girdle_coupling.csv`: the `myoarm` joint-equality polynomials (dependent = c0 + c1 x + ... + c4 x^4, x = driver);
-- `humerus_inertia.csv`: the `myoarm` humerus mass, COM and inertia tensor (MyoArm = the MoBL-ARMS parent's).
+- `humerus_inertia.csv`: the `myoarm` humerus mass, COM and inertia tensor (MyoArm = the MoBL-ARMS parent's);
+- `mobl_arms_parent_paths.csv`: the MoBL-ARMS parent's own path points and wrap objects (ours, extracted from its
+  .osim, models/reference/README.md), for the muscles in `PATH_SOURCE` (ssp: the parent's SUPSP, whose one wrap
+  object is an "ellipsoid" with three equal semi-axes, i.e. a sphere, so MuJoCo wraps it exactly).
 
 Only the standard library is used (csv; gzip for a `.gz` file), plus a rotation for the MyoArm clavicle variant.
 """
@@ -26,6 +29,15 @@ CHAIN = ("thorax", "clavicle", "clavphant", "scapula", "scapphant", "humphant", 
 # our tendon -> MyoArm muscle. LAT1-3 stay three bundles (ld1-3): each has its own thorax origin and scapular via
 # point and wraps differently (LAT2's second wrap has no side site), so one line cannot reproduce them.
 MUSCLES = {"ssp": "SUPSP", "isp": "INFSP", "dmi": "DELT2", "ld1": "LAT1", "ld2": "LAT2", "ld3": "LAT3"}
+# Whose path each tendon takes (default MyoArm's). ssp takes the parent's: the reference README calls the parent's
+# SUPSP clean (section 6.4) and our ssp follows it (references.FOLLOWS); MyoArm moved its scapular via point P2 by
+# 27 mm (to the infraspinatus side) and its wrap sphere, so its SUPSP turns into a depressor above 64 deg where the
+# parent's still elevates. The parent's SUPSP is three fixed points and one sphere: MuJoCo reproduces its moment arms
+# over the whole 3-DOF grid within 0.07 mm (tests/test_mobl.py). isp, dmi and LAT1-3 keep MyoArm's: the parent's wrap
+# INFSP over an ellipsoid (not a sphere) and moves DELT2's and LAT1-3's points with shoulder_elv, which fixed MuJoCo
+# sites cannot.
+PATH_SOURCE = {"ssp": "mobl_arms"}
+PARENT_PATHS_FILE = "mobl_arms_parent_paths.csv"
 
 
 @dataclass(frozen=True)
@@ -166,11 +178,18 @@ def humerus_inertial(folder: Path | None = None) -> Inertial:
     raise ValueError("humerus_inertia.csv has no myoarm humerus row")
 
 
-def muscle_paths(folder: Path | None = None) -> dict[str, list]:
-    """Each of our tendons' path: Site and Wrap items in MyoArm's path order (`seq`)."""
+def muscle_paths(folder: Path | None = None, source: str = "v2") -> dict[str, list]:
+    """Each of our tendons' path: Site and Wrap items in path order. `source="v2"`: the parent's path for the
+    tendons in PATH_SOURCE, MyoArm's (`seq` order) for the others; `source="myoarm"`: MyoArm's for all (the
+    reconstruction test)."""
+    if source not in ("v2", "myoarm"):
+        raise ValueError(f"source must be 'v2' or 'myoarm', not {source!r}")
     rows = [r for r in _rows("muscle_parameters.csv", folder) if r["model"] == SOURCE]
     out = {}
     for ours, theirs in MUSCLES.items():
+        if source == "v2" and PATH_SOURCE.get(ours) == "mobl_arms":
+            out[ours] = parent_path(theirs, folder)
+            continue
         items = []
         for r in sorted((r for r in rows if r["muscle"] == theirs and r["record"] in ("path_point", "wrap")),
                         key=lambda r: int(r["seq"])):
@@ -192,6 +211,43 @@ def muscle_paths(folder: Path | None = None) -> dict[str, list]:
             raise ValueError(f"{theirs}: a path must start and end at a site")
         out[ours] = items
     return out
+
+
+def parent_path(muscle: str, folder: Path | None = None) -> list:
+    """The parent's path of `muscle` (its name, e.g. SUPSP) as Site and Wrap items, from PARENT_PATHS_FILE.
+
+    Only what MuJoCo represents exactly is accepted: fixed PathPoints, and wrap spheres (WrapSphere, or a
+    WrapEllipsoid with three equal semi-axes) over all quadrants (no side site; MuJoCo then wraps on the side of the
+    shorter path, as OpenSim's "all" does). A wrap object is placed in the one path segment that joins its body to
+    another body (OpenSim's range -1 -1 tries every segment; on a bone-to-bone path the contact is on that
+    segment). Anything else is an error naming the item."""
+    rows = sorted((r for r in _rows(PARENT_PATHS_FILE, folder) if r["muscle"] == muscle), key=lambda r: int(r["seq"]))
+    if not rows:
+        raise ValueError(f"{PARENT_PATHS_FILE}: no path of {muscle}")
+    sites, wraps = [], []
+    for r in rows:
+        pos = tuple(float(r[k]) for k in ("x", "y", "z"))
+        name = f"{muscle}_{r['name']}"
+        if r["record"] == "path_point":
+            if r["type"] != "PathPoint":
+                raise ValueError(f"{muscle} {r['name']}: a {r['type']} moves with a coordinate; MuJoCo sites cannot")
+            sites.append(Site(name, r["body"], pos))
+            continue
+        size = [float(v) for v in r["size"].split()]
+        if r["type"] not in ("WrapSphere", "WrapEllipsoid") or max(size) != min(size):
+            raise ValueError(f"{muscle} wrap {r['name']}: {r['type']} of size {r['size']} is not a sphere")
+        if r["quadrant"] != "all" or r["range"].split() != ["-1", "-1"]:
+            raise ValueError(f"{muscle} wrap {r['name']}: quadrant {r['quadrant']!r}, range {r['range']!r}")
+        wraps.append(Wrap(f"{muscle}_wrap_{r['name']}", r["body"], "sphere", pos, (1.0, 0.0, 0.0, 0.0),
+                          (size[0],), None))
+    items = list(sites)
+    for w in wraps:
+        seg = [k for k in range(len(sites) - 1) if sites[k].body != sites[k + 1].body
+               and w.body in (sites[k].body, sites[k + 1].body)]
+        if len(seg) != 1:
+            raise ValueError(f"{muscle} wrap {w.name}: {len(seg)} segments join {w.body} to another body, need 1")
+        items.insert(items.index(sites[seg[0]]) + 1, w)
+    return items
 
 
 def thorax_ellipsoid(folder: Path | None = None) -> tuple[tuple, tuple, tuple]:

@@ -64,10 +64,11 @@ FOLLOWS = {
     "dmi": ("myoarm", "the parent's DELT2 moving path point makes it large near the side (33.4 mm at 0 deg, fixed "
                       "coronal; section 6.4), against the literature (small near the side); MyoArm wraps DELT2 over "
                       "the head, the OpenSim file's DELT2 is an unwrapped polyline (section 6.1)"),
-    "ld": ("mobl_opensim", "the parent's LAT1-3 carry most of its path-length jumps and unchecked moving points "
-                           "(section 6.4); MyoArm's girdle sits 37 mm off its thorax attachments, which changes LAT1-3 "
-                           "coupled-girdle moment arms by 7-10 mm and makes them elevate near the side (section 6.2); "
-                           "the OpenSim file has the MoBL girdle placement and one LAT line, as our ld"),
+    "ld": ("myoarm", "v2's LAT1-3 are MyoArm's paths (the reconstruction, docs/model_v2.md) with the clavicle at "
+                     "MoBL's SC location, which corrects MyoArm's 37 mm girdle offset (section 6.2) and so changes "
+                     "only the coupled shoulder_elv arms; the parent's LAT1-3 carry most of its path-length jumps and "
+                     "unchecked moving points (section 6.4); the OpenSim file's one LAT line, followed while v2's ld "
+                     "was one line, is not v2's path"),
 }
 
 # References left out of a muscle's envelope and of its "within 5 mm of one of them" check, and why: we follow one

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from shoulder_bench.authoring import anatomy, references
+from shoulder_bench.authoring import anatomy, mobl_data, references
 from shoulder_bench.authoring.validate import ENVELOPE_MARGIN_MM, NOT_MODELLED, PASSIVE_MAX_DEG, PLANE_NAMES
 
 COLOURS = {"mobl_arms": "tab:blue", "myoarm": "tab:green", "mobl_opensim": "tab:orange"}
@@ -296,7 +296,9 @@ def _figure_v2(plt, m, ma):
             ax.set_xlabel("elevation (deg)") if i == 2 else None
             ax.set_ylabel(f"{references.DOF_LABELS[coord]} moment arm (mm, {signs[coord]})") if j == 0 else None
     axes[0, 0].legend(fontsize=7, loc="best")
+    parent = mobl_data.PATH_SOURCE.get(m) == "mobl_arms"  # ssp: the parent's own path (docs/model_v2.md)
+    own, match = ("the parent's own path", "parent") if parent else ("MyoArm's path", "MyoArm")
     fig.suptitle(f"{anatomy.MUSCLE_NAMES[m]} ({m}): v2 kinematic model against the references, rotation 0 "
-                 "(v2 = MyoArm's geometry: its MyoArm match is near-tautological)")
+                 f"(v2 = {own}: its {match} match is near-tautological; the {match} curve lies under v2's)")
     fig.tight_layout()
     return fig

@@ -6,7 +6,12 @@ Usage (from the repository root; the .osim is not part of this repository):
     git --git-dir=<osim-rl clone>/.git show $C:osim/models/MoBL_ARMS_J.osim > /tmp/MoBL_ARMS_J.osim
     md5sum /tmp/MoBL_ARMS_J.osim   # d6b9866c4f721f481e7d9e0bdae51093
     python models/reference/scripts/extract_parent_muscles.py /tmp/MoBL_ARMS_J.osim \
-        --out models/reference/mobl_arms_parent_muscles.csv --curves models/reference/mobl_arms_parent_curves.csv
+        --out models/reference/mobl_arms_parent_muscles.csv --curves models/reference/mobl_arms_parent_curves.csv \
+        --paths models/reference/mobl_arms_parent_paths.csv
+
+`--paths` also writes each muscle's geometry path: its path points in order (PathPoint, or MovingPathPoint /
+ConditionalPathPoint with the location the file spells, which MuJoCo cannot move) and the wrap objects of its
+PathWrapSet (type, body, translation, xyz_body_rotation, size, quadrant, wrap method and range), one row per item.
 
 `--curves` also writes each muscle's three SimmSpline curves (tendon_force_length_curve, active_force_length_curve,
 passive_force_length_curve: normalised length or strain -> normalised force), one row per knot, x and y as the file
@@ -83,11 +88,67 @@ def extract_curves(path: str) -> list[dict]:
     return rows
 
 
+PATH_COLUMNS = ("muscle", "seq", "record", "name", "type", "body", "x", "y", "z", "rot_x", "rot_y", "rot_z", "size",
+                "quadrant", "method", "range")
+WRAP_SIZE = {"WrapSphere": ("radius",), "WrapEllipsoid": ("dimensions",), "WrapCylinder": ("radius", "length"),
+             "WrapTorus": ("inner_radius", "outer_radius")}
+
+
+def _text(el: ET.Element, tag: str, where: str) -> str:
+    child = el.find(tag)
+    if child is None or child.text is None:
+        raise SystemExit(f"{where}: no <{tag}>")
+    return " ".join(child.text.split())
+
+
+def extract_paths(path: str) -> list[dict]:
+    """Each muscle's path points and wrap objects in path order: points first (seq 0..), then its PathWrapSet's
+    wraps in the file's order (seq continues); values as spelled, whitespace collapsed."""
+    root = ET.parse(path).getroot()
+    wraps: dict[str, tuple[str, ET.Element]] = {}
+    for body in root.iter("Body"):
+        for w in body.findall("WrapObjectSet/objects/*"):
+            if w.get("name") in wraps:
+                raise SystemExit(f"{path}: wrap object {w.get('name')} appears twice")
+            wraps[w.get("name")] = (body.get("name"), w)
+    rows = []
+    for el in root.findall("./Model/ForceSet/objects/*"):
+        m = el.get("name")
+        if m not in MUSCLES:
+            continue
+        gp = el.find("GeometryPath")
+        if gp is None:
+            raise SystemExit(f"{path}: {m} has no GeometryPath")
+        seq = 0
+        for pt in gp.findall("PathPointSet/objects/*"):
+            x, y, z = _text(pt, "location", f"{m} {pt.tag}").split()
+            rows.append({"muscle": m, "seq": seq, "record": "path_point", "name": pt.get("name"), "type": pt.tag,
+                         "body": _text(pt, "body", f"{m} {pt.tag}"), "x": x, "y": y, "z": z})
+            seq += 1
+        for pw in gp.findall("PathWrapSet/objects/PathWrap"):
+            name = _text(pw, "wrap_object", f"{m} PathWrap")
+            if name not in wraps:
+                raise SystemExit(f"{path}: {m} wraps over unknown object {name}")
+            body, w = wraps[name]
+            if w.tag not in WRAP_SIZE:
+                raise SystemExit(f"{path}: wrap {name}: unknown type {w.tag}")
+            x, y, z = _text(w, "translation", name).split()
+            rx, ry, rz = _text(w, "xyz_body_rotation", name).split()
+            rows.append({"muscle": m, "seq": seq, "record": "wrap", "name": name, "type": w.tag, "body": body,
+                         "x": x, "y": y, "z": z, "rot_x": rx, "rot_y": ry, "rot_z": rz,
+                         "size": " ".join(_text(w, t, name) for t in WRAP_SIZE[w.tag]),
+                         "quadrant": _text(w, "quadrant", name), "method": _text(pw, "method", name),
+                         "range": _text(pw, "range", name)})
+            seq += 1
+    return rows
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("osim", help="local copy of MoBL_ARMS_J.osim")
     ap.add_argument("--out", help="CSV to write (default: stdout)")
     ap.add_argument("--curves", help="also write the muscles' force-length curves to this CSV")
+    ap.add_argument("--paths", help="also write the muscles' path points and wrap objects to this CSV")
     args = ap.parse_args(argv)
     with open(args.osim, "rb") as f:
         md5 = hashlib.md5(f.read()).hexdigest()
@@ -106,6 +167,11 @@ def main(argv=None) -> int:
             w = csv.DictWriter(f, fieldnames=CURVE_COLUMNS, lineterminator="\n")
             w.writeheader()
             w.writerows(curves)
+    if args.paths:
+        with open(args.paths, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=PATH_COLUMNS, lineterminator="\n")
+            w.writeheader()
+            w.writerows(extract_paths(args.osim))
     print(f"{args.osim}: md5 {md5}, {len(rows)} muscles", file=sys.stderr)
     return 0
 
