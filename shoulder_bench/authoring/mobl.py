@@ -48,7 +48,12 @@ THORAX_QUAT = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)  # thorax y (superior) 
 # Placeholder inertial of the girdle and phantom bodies: MuJoCo refuses massless moving bodies, and the reference
 # data has no girdle masses. Not anatomy; 0.1 g puts no measurable load on the slaved joints.
 PLACEHOLDER_INERTIAL = '<inertial pos="0 0 0" mass="0.0001" diaginertia="1e-08 1e-08 1e-08"/>'
-TENDON_RGBA = {t: MUSCLE_RGBA[t[:2] if t.startswith("ld") else t] for t in D.MUSCLES}
+FULL_FILENAME = "shoulder_full.xml"  # the full shoulder's 3-DOF kinematic model (issue 12, docs/model_full.md)
+# v1's colours for the four; the added muscles by group (deltoid reds, rotator cuff oranges, pectoral blues). Visual.
+TENDON_RGBA = {**{t: MUSCLE_RGBA[t[:2] if t.startswith("ld") else t] for t in D.MUSCLES},
+               "dan": "0.85 0.20 0.30 1", "dpo": "0.65 0.10 0.40 1", "ssc": "0.90 0.55 0.25 1",
+               "tmi": "0.80 0.60 0.30 1", "tma": "0.55 0.30 0.55 1", "pec1": "0.25 0.40 0.80 1",
+               "pec2": "0.20 0.30 0.70 1", "pec3": "0.15 0.25 0.60 1", "cor": "0.30 0.60 0.60 1"}
 # Simulating the model (`model_xml(dynamics=True)` + `arm.harden_couplings`; benchmarks/v2_dynamics.py, docs/model_v2.md
 # "Dynamics: options measured"). Numerical settings, not anatomy; none has a source.
 # MuJoCo's hardest impedance (solimp dmax is capped at 0.9999): the couplings' regularizer R = (1 - d)/d * A_hat.
@@ -186,7 +191,8 @@ def _lock(frames: dict, joints: list, locked: dict[str, float]) -> tuple[dict, l
 
 
 def model_xml(clavicle: str = "mobl", folder: Path | None = None, locked_plane_deg: float | None = None,
-              dynamics: bool = False, actuators: bool = False, scene: bool = False, paths: str = "v2") -> str:
+              dynamics: bool = False, actuators: bool = False, scene: bool = False, paths: str = "v2",
+              muscles: str = "v2") -> str:
     """The v2 MJCF. `clavicle="myoarm"` puts the clavicle where MyoArm has it and `paths="myoarm"` gives every
     tendon MyoArm's path (ssp's too; v2's ssp is the parent's, `mobl_data.PATH_SOURCE`): both for the
     reconstruction tests only.
@@ -211,9 +217,12 @@ def model_xml(clavicle: str = "mobl", folder: Path | None = None, locked_plane_d
     S^T ten_J^T F, S the coupling slopes. A table that changes (the FEM's, later) changes data, not this. Compile
     with `model.compile_model`'s recipe (user actuators cannot be compiled while the callbacks are installed).
 
+    `muscles="full"`: the full shoulder (`mobl_data.FULL_MUSCLES`: the v2 six tendons and dan, dpo, ssc, tmi, tma,
+    pec1-3, cor on MyoArm's paths; docs/model_full.md), model name `shoulder_full`; the default "v2" is the four.
+
     `scene=True`: what rendering needs (`SCENE`): sky, floor, lights and the cameras `front` and `back`, v1's
     (models/scene.xml) framed on this model's shoulder and girdle. Visual only: no effect on the dynamics."""
-    frames, joints, paths = D.body_frames(folder), D.joints(folder), D.muscle_paths(folder, paths)
+    frames, joints, paths = D.body_frames(folder), D.joints(folder), D.muscle_paths(folder, paths, muscles)
     D.check_clavicle_parallel(folder)
     if clavicle not in ("mobl", "myoarm"):
         raise ValueError(f"clavicle must be 'mobl' or 'myoarm', not {clavicle!r}")
@@ -269,7 +278,8 @@ def model_xml(clavicle: str = "mobl", folder: Path | None = None, locked_plane_d
         lines = "".join(f"{pad}  {x}\n" for x in inner[b])
         body = f'{pad}<body name="{b}" {body_attr[b]}>\n{lines}{body}{pad}</body>\n'
     where = "MoBL's SC location" if clavicle == "mobl" else "MyoArm's clavicle location (test variant)"
-    name, variant = "shoulder_v2", ""
+    name, variant = ("shoulder_v2", "") if muscles == "v2" else (
+        "shoulder_full", f"\n       Full shoulder: {len(paths)} tendons ({', '.join(paths)}).")
     if locked:
         name += "_locked"
         variant += (f"\n       Locked 1-DOF variant: plane of elevation {_n(float(locked_plane_deg))} deg, axial "
@@ -334,12 +344,13 @@ def task_model_xml() -> str:
 
 
 def write_model(models_dir: Path | None = None) -> list[Path]:
-    """Write `shoulder_v2.xml` (the 3-DOF model) and `shoulder_v2_task.xml` (the tasks' locked variant) into
-    `models_dir` (default: the package's models folder)."""
+    """Write `shoulder_v2.xml` (the 3-DOF model), `shoulder_v2_task.xml` (the tasks' locked variant) and
+    `shoulder_full.xml` (the full shoulder's 3-DOF model) into `models_dir` (default: the package's models folder)."""
     from shoulder_bench.model import MODELS_DIR
 
     out = []
-    for name, text in ((FILENAME, model_xml()), (TASK_FILENAME, task_model_xml())):
+    for name, text in ((FILENAME, model_xml()), (TASK_FILENAME, task_model_xml()),
+                       (FULL_FILENAME, model_xml(muscles="full"))):
         path = Path(models_dir or MODELS_DIR) / name
         path.write_text(text)
         out.append(path)

@@ -37,6 +37,26 @@ MUSCLES = {"ssp": "SUPSP", "isp": "INFSP", "dmi": "DELT2", "ld1": "LAT1", "ld2":
 # INFSP over an ellipsoid (not a sphere) and moves DELT2's and LAT1-3's points with shoulder_elv, which fixed MuJoCo
 # sites cannot.
 PATH_SOURCE = {"ssp": "mobl_arms"}
+# The full shoulder (issue 12, `models/shoulder_full.xml`, docs/model_full.md): the four plus nine MoBL-ARMS muscles.
+# Every one of the nine takes MyoArm's path under the same rule as ssp: the parent's path is taken only where MuJoCo
+# represents it exactly (`parent_path`), and it refuses all nine (PARENT_REFUSED; tests/test_mobl_full.py checks it).
+FULL_MUSCLES = {**MUSCLES, "dan": "DELT1", "dpo": "DELT3", "ssc": "SUBSC", "tmi": "TMIN", "tma": "TMAJ",
+                "pec1": "PECM1", "pec2": "PECM2", "pec3": "PECM3", "cor": "CORB"}
+MUSCLE_SETS = {"v2": MUSCLES, "full": FULL_MUSCLES}
+# Why the parent's own path of each added muscle is not representable (mobl_arms_parent_paths.csv): the item
+# `parent_path` refuses first, and what else the path has that MuJoCo cannot do exactly.
+PARENT_REFUSED = {
+    "dan": "delt2hum is a finite cylinder; DELT1hh a true ellipsoid (0.03 0.1 0.05 m) on quadrant z",
+    "dpo": "Delt3 is a WrapTorus; delt3hum a true ellipsoid on quadrant x",
+    "ssc": "SUBSCAP is a true ellipsoid (0.02 0.017 0.028 m)",
+    "tmi": "its wrap TMIN is a true ellipsoid on quadrant x; TMINhum a finite cylinder on quadrant x",
+    "tma": "TMAJ_LAThum and LAT_TMAJhh are finite cylinders on quadrants -x / -y, LAT_TMAJ2hh a sphere on -z",
+    "pec1": "two MovingPathPoints (the 'default' points move with shoulder_elv); the Thorax wrap a true ellipsoid",
+    "pec2": "two MovingPathPoints; the Thorax wrap a true ellipsoid; PEC12hum a finite cylinder on quadrant x",
+    "pec3": "two MovingPathPoints; the Thorax wrap a true ellipsoid; PEC3hum a finite cylinder on quadrant -x",
+    "cor": "CORBhum is a finite (0.1 m) cylinder wrapped on quadrant x only, which MuJoCo's infinite cylinder with "
+           "a side site does not reproduce exactly (and the parent's CORB has wrap artefacts, README 6.4)",
+}
 PARENT_PATHS_FILE = "mobl_arms_parent_paths.csv"
 
 
@@ -178,15 +198,17 @@ def humerus_inertial(folder: Path | None = None) -> Inertial:
     raise ValueError("humerus_inertia.csv has no myoarm humerus row")
 
 
-def muscle_paths(folder: Path | None = None, source: str = "v2") -> dict[str, list]:
+def muscle_paths(folder: Path | None = None, source: str = "v2", muscles: str = "v2") -> dict[str, list]:
     """Each of our tendons' path: Site and Wrap items in path order. `source="v2"`: the parent's path for the
     tendons in PATH_SOURCE, MyoArm's (`seq` order) for the others; `source="myoarm"`: MyoArm's for all (the
-    reconstruction test)."""
+    reconstruction test). `muscles`: "v2" (MUSCLES, the four) or "full" (FULL_MUSCLES)."""
     if source not in ("v2", "myoarm"):
         raise ValueError(f"source must be 'v2' or 'myoarm', not {source!r}")
+    if muscles not in MUSCLE_SETS:
+        raise ValueError(f"muscles must be one of {sorted(MUSCLE_SETS)}, not {muscles!r}")
     rows = [r for r in _rows("muscle_parameters.csv", folder) if r["model"] == SOURCE]
     out = {}
-    for ours, theirs in MUSCLES.items():
+    for ours, theirs in MUSCLE_SETS[muscles].items():
         if source == "v2" and PATH_SOURCE.get(ours) == "mobl_arms":
             out[ours] = parent_path(theirs, folder)
             continue

@@ -44,13 +44,20 @@ MUSCLE_MAP = {
     "isp": {"mobl_arms": ("INFSP",), "myoarm": ("INFSP",), "mobl_opensim": ("INFSP",)},
     "dmi": {"mobl_arms": ("DELT2",), "myoarm": ("DELT2",), "mobl_opensim": ("DELT2",)},
     "ld": {"mobl_arms": ("LAT1", "LAT2", "LAT3"), "myoarm": ("LAT1", "LAT2", "LAT3"), "mobl_opensim": ("LAT",)},
+    # the full shoulder's added muscles (issue 12, docs/model_full.md): one bundle each, the same name in all three
+    **{m: dict.fromkeys(REFERENCES, (b,)) for m, b in (("dan", "DELT1"), ("dpo", "DELT3"), ("ssc", "SUBSC"),
+                                                         ("tmi", "TMIN"), ("tma", "TMAJ"), ("pec1", "PECM1"),
+                                                         ("pec2", "PECM2"), ("pec3", "PECM3"), ("cor", "CORB"))},
 }
+FULL_MUSCLES = tuple(MUSCLE_MAP)  # the full shoulder's thirteen muscles (ld of three bundles): 15 tendons
 
 # The v2 model's tendons (models/shoulder_v2.xml) per muscle of ours, each with the parent's bundle it reconstructs.
 # v2 has no forces yet, so ld's three bundles are combined as the references' LAT1-3 are, weighted by the parent's F0
 # (mobl_arms_parent_muscles.csv; the F0s anatomy.F0 uses): `ReferenceTables.v2_weights`.
 V2_TENDONS = {"ssp": {"ssp": "SUPSP"}, "isp": {"isp": "INFSP"}, "dmi": {"dmi": "DELT2"},
               "ld": {"ld1": "LAT1", "ld2": "LAT2", "ld3": "LAT3"}}
+# The full shoulder's tendons (models/shoulder_full.xml): v2's and one per added muscle, named as the muscle.
+FULL_TENDONS = {**V2_TENDONS, **{m: {m: MUSCLE_MAP[m]["mobl_arms"][0]} for m in FULL_MUSCLES if m not in V2_TENDONS}}
 V2_F0_FROM = "mobl_arms"
 
 # The reference each muscle follows (the peak-torque target uses its peak moment arm), from the findings of the
@@ -77,6 +84,16 @@ ENVELOPE_EXCLUDED = {
     "isp": {"mobl_arms": "the parent's INFSP wrap disagrees with its own computeMomentArm at 501 points (README 6.4)"},
     "dmi": {"mobl_arms": "the parent's DELT2 moving point: large near the side, uncheckable (README 6.4)"},
     "ld": {"mobl_arms": "the parent's LAT1-3: path-length jumps and unchecked moving points (README 6.4)"},
+    # the full shoulder's added muscles (docs/model_full.md, "References left out"); the parent stays in for DELT1,
+    # DELT3, SUBSC and CORB (README 6.4: SUBSC clean; MyoArm tracks the parent for those four; CORB's wrap slide is at
+    # 140 deg elevation, outside 0-120) and for PECM2-3 (below)
+    "tmi": {"mobl_arms": "the parent's TMIN disagrees with its own computeMomentArm at 947 points and has path-length "
+                         "jumps (README 6.4)"},
+    "tma": {"mobl_arms": "the parent's TMAJ disagrees with its own computeMomentArm at 229 points and has path-length "
+                         "jumps (README 6.4)"},
+    "pec1": {"mobl_arms": "the parent's PECM1: path-length jumps and unchecked moving points (README 6.4)"},
+    # PECM2 and PECM3: moving points too, so unchecked by computeMomentArm, but README 6.4 documents no artefact of
+    # their curves (no jumps listed): the parent stays in (docs/model_full.md, "References left out")
 }
 
 
@@ -120,9 +137,9 @@ class ReferenceTables:
         return w @ arms / w.sum()
 
     def v2_weights(self, muscle: str) -> dict[str, float]:
-        """{v2 tendon: weight} that make our muscle from the v2 model's tendons: the parent's F0 of the bundle each
-        tendon reconstructs, normalised (ld: LAT1-3 290.5 / 317.5 / 189 N); 1 for a single tendon."""
-        f0 = {t: self.f0[(V2_F0_FROM, b)] for t, b in V2_TENDONS[muscle].items()}
+        """{tendon: weight} that make our muscle from the v2 (or full) model's tendons: the parent's F0 of the bundle
+        each tendon reconstructs, normalised (ld: LAT1-3 290.5 / 317.5 / 189 N); 1 for a single tendon."""
+        f0 = {t: self.f0[(V2_F0_FROM, b)] for t, b in FULL_TENDONS[muscle].items()}
         total = sum(f0.values())
         return {t: f / total for t, f in f0.items()}
 

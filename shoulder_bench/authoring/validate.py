@@ -63,6 +63,7 @@ TASK_PLANE_V2 = 0
 NO_TASK_PLANE = "tasks' plane not chosen yet"
 V2_JOINTS = ("elv_angle", "shoulder_elv", "shoulder_rot")
 V2_TENDONS = tuple(t for tendons in references.V2_TENDONS.values() for t in tendons)
+FULL_TENDONS = tuple(t for tendons in references.FULL_TENDONS.values() for t in tendons)
 REST_TEXT = "the relaxed arm rests near hanging (activations 0: passive torque + gravity)"
 REST_BOUND = f"within {REST_MAX_DEG:g} deg of 0 deg"
 PASSIVE_TEXT = f"net passive muscle torque small over 0-{PASSIVE_MAX_DEG:g} deg"
@@ -87,6 +88,9 @@ class ModelView:
     version: str = "1"
 
     def describe(self) -> str:
+        if self.version == "full":
+            return ("the full shoulder: DOFs elevation, rotation, plane (girdle slaved by polycoef equalities); posed "
+                    "in the coronal (0), scapular (30) and sagittal (90 deg) planes; girdle coupled and fixed")
         if self.version == "2":
             tp = NO_TASK_PLANE if self.task_plane is None else f"tasks in plane {self.task_plane}"
             return ("DOFs elevation, rotation, plane (shoulder_elv, shoulder_rot, elv_angle; girdle joints slaved by "
@@ -103,6 +107,8 @@ def inspect_model(path: Path | str = DEFAULT_MODEL) -> ModelView:
     if joints == [JOINT] and np.allclose(m.jnt_axis[0], (1.0, 0.0, 0.0)):  # v1: abduction about +x (anterior)
         return ModelView(("shoulder_elv",), (0,), "fixed", 0, NOT_MODELLED)
     tendons = [m.tendon(t).name for t in range(m.ntendon)]
+    if set(V2_JOINTS) <= set(joints) and set(FULL_TENDONS) <= set(tendons) and m.neq:  # the full shoulder
+        return ModelView(references.COORDINATES, (0, 30, 90), "coupled and fixed", None, "", version="full")
     if set(V2_JOINTS) <= set(joints) and set(V2_TENDONS) <= set(tendons) and m.neq:  # v2: the MoBL chain
         if TASK_PLANE_V2 not in (None, *references.PLANES.values()):
             raise ValueError(f"validate.TASK_PLANE_V2 = {TASK_PLANE_V2!r}: None (not chosen) or one of "
@@ -376,6 +382,10 @@ def evaluate(muscle_model: str = DEFAULT_MUSCLE_MODEL, path: Path | str = DEFAUL
     from shoulder_bench.muscle import ForceLaw
 
     view = inspect_model(path)
+    if view.version == "full":
+        from shoulder_bench.authoring import validate_full
+
+        return validate_full.evaluate(view, _shown(path), path)
     if view.version == "2":
         from shoulder_bench.authoring import validate_v2
 

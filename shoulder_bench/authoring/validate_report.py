@@ -26,6 +26,8 @@ def print_report(r: dict, file=None) -> None:
     mod, ma = r["model"], r["moment_arms"]
     if mod["version"] == "2":
         return _print_v2(r, say)
+    if mod["version"] == "full":
+        return _print_full(r, say)
     refs, short = references.REFERENCES, references.SHORT
     say(f"shoulder-bench model validate: {mod['path']} (model version {mod['version']}), muscle tables "
         f"{mod['muscle_model']}")
@@ -144,15 +146,32 @@ def _print_v2(r, say):
         rows += [(f"{m} {short[x]} {g}", f"{m}/shoulder_elv/{{plane}}/{g}", x) for g in girdles
                  for x in references.REFERENCES]
     _two_plane_table(say, ma, rows)
+    _rmse_table(say, ma, anatomy.MUSCLES)
+    _say_v2_quantities(r, say)
+    n_pass = sum(t["passed"] for t in r["targets"])
+    tp = mod["task_plane_deg"]
+    chosen = ("tasks' plane not chosen yet (validate.TASK_PLANE_V2 = None): the targets in it fail; both candidate "
+              "planes shown" if tp is None else f"tasks' plane {PLANE_NAMES[tp]} ({tp} deg)")
+    say(f"\nTargets: {n_pass} of {len(r['targets'])} pass; {chosen}")
+    say("moment-arm targets met per candidate plane (girdle coupled; the start of abduction girdle fixed): "
+        + ", ".join(f"{PLANE_NAMES[int(p)]} {c['passed']} of {c['of']}" for p, c in r["per_plane_passed"].items())
+        + "; force targets (static estimate): " + ", ".join(
+        f"{PLANE_NAMES[int(p)]} {c['force_passed']} of {c['force_of']}" for p, c in r["per_plane_passed"].items()))
+    _say_targets(r, say)
+
+
+def _rmse_table(say, ma, muscles, which="v2"):
+    """Per muscle, DOF and girdle: the RMSE against each reference and the envelope results, both planes."""
+    short, girdles = references.SHORT, references.GIRDLES
     say(f"\nMoment-arm RMSE (mm) against each reference; envelope: the references not left out +- "
-        f"{ENVELOPE_MARGIN_MM:g} mm, w/o MyoArm: the same without MyoArm (v2 = MyoArm), worst mm outside at deg; "
+        f"{ENVELOPE_MARGIN_MM:g} mm, w/o MyoArm: the same without MyoArm ({which} = MyoArm), worst mm outside at deg; "
         "elevation 0-120 deg, rotation 0")
     plane_head = "".join(f"{f'{n} ({p} deg)':>51s}" for n, p in references.PLANES.items())
     say(f"{'':27s}{plane_head}")
     say(f"{'muscle':7s}{'DOF':11s}{'girdle':9s}" + ("  " + "".join(f"{short[x]:>8s}" for x in references.REFERENCES)
                                                    + f"{'envelope':>12s}{'w/o MyoArm':>13s}") * 2)
     by_key = {(x["muscle"], x["coordinate"], x["plane_deg"], x["girdle"]): x for x in ma["rmse"]}
-    for m in anatomy.MUSCLES:
+    for m in muscles:
         for c in references.COORDINATES:
             for g in girdles:
                 line = f"{m:7s}{references.DOF_LABELS[c]:11s}{g:9s}"
@@ -165,17 +184,25 @@ def _print_v2(r, say):
                 say(line)
     say("envelope references: " + "; ".join(
         f"{m} " + ", ".join(short[x] for x in references.REFERENCES if x not in references.ENVELOPE_EXCLUDED.get(m, {}))
-        for m in anatomy.MUSCLES) + " (the v2 targets use this envelope; w/o MyoArm is shown only)")
-    _say_v2_quantities(r, say)
-    n_pass = sum(t["passed"] for t in r["targets"])
-    tp = mod["task_plane_deg"]
-    chosen = ("tasks' plane not chosen yet (validate.TASK_PLANE_V2 = None): the targets in it fail; both candidate "
-              "planes shown" if tp is None else f"tasks' plane {PLANE_NAMES[tp]} ({tp} deg)")
-    say(f"\nTargets: {n_pass} of {len(r['targets'])} pass; {chosen}")
-    say("moment-arm targets met per candidate plane (girdle coupled; the start of abduction girdle fixed): "
-        + ", ".join(f"{PLANE_NAMES[int(p)]} {c['passed']} of {c['of']}" for p, c in r["per_plane_passed"].items())
-        + "; force targets (static estimate): " + ", ".join(
-        f"{PLANE_NAMES[int(p)]} {c['force_passed']} of {c['force_of']}" for p, c in r["per_plane_passed"].items()))
+        for m in muscles) + f" (the {which} targets use this envelope; w/o MyoArm is shown only)")
+
+
+def _print_full(r, say):
+    mod = r["model"]
+    say(f"shoulder-bench model validate: {mod['path']} (the full shoulder, kinematics only: {len(mod['muscles'])} "
+        f"muscles, {sum(len(w) for w in mod['tendons'].values())} tendons)")
+    say(f"model: {mod['description']}")
+    say("path source: " + ", ".join(f"{t} {references.SHORT[s]}" for t, s in r["path_source"].items()))
+    say(f"note: {mod['note']}")
+    say(f"force targets: {r['force_targets']}")
+    _rmse_table(say, r["moment_arms"], mod["muscles"], "full")
+    say("\nPer muscle and DOF (every envelope, RMSE and role target of it, coronal and scapular planes, girdle "
+        "coupled):")
+    dofs = list(next(iter(r["summary"].values())))
+    say(f"{'muscle':7s}" + "".join(f"{d:>11s}" for d in dofs))
+    for m, res in r["summary"].items():
+        say(f"{m:7s}" + "".join(f"{res[d]:>11s}" for d in dofs))
+    say(f"\nTargets: {sum(t['passed'] for t in r['targets'])} of {len(r['targets'])} pass")
     _say_targets(r, say)
 
 
@@ -245,10 +272,10 @@ def write_figures(r: dict, out_dir: Path) -> list[Path]:
     ma, mod = r["moment_arms"], r["model"]
     x = np.asarray(ma["elevation_deg"])
     paths = []
-    for m in anatomy.MUSCLES:
-        if mod["version"] == "2":
-            fig = _figure_v2(plt, m, ma)
-            path = Path(out_dir) / f"validate_v2_{m}.png"
+    for m in mod.get("muscles", anatomy.MUSCLES):
+        if mod["version"] in ("2", "full"):
+            fig = _figure_v2(plt, m, ma, mod["version"])
+            path = Path(out_dir) / f"validate_{'v2' if mod['version'] == '2' else 'full'}_{m}.png"
         else:
             fig = _figure_v1(plt, m, ma, mod, x)
             path = Path(out_dir) / f"validate_{m}.png"
@@ -280,8 +307,10 @@ def _figure_v1(plt, m, ma, mod, x):
     return fig
 
 
-def _figure_v2(plt, m, ma):
-    """3 DOFs (rows) x (coronal, scapular) x (coupled, fixed) (columns): v2 every 1 deg, references on their grid."""
+def _figure_v2(plt, m, ma, version="2"):
+    """3 DOFs (rows) x (coronal, scapular) x (coupled, fixed) (columns): v2 (or the full model) every 1 deg,
+    references on their grid."""
+    from shoulder_bench.authoring.validate_full import NAMES
     x, xf = np.asarray(ma["elevation_deg"]), np.asarray(ma["fine_elevation_deg"])
     cells = [(n, p, g) for n, p in references.PLANES.items() for g in references.GIRDLES]
     fig, axes = plt.subplots(3, len(cells), figsize=(17, 11), sharex=True, sharey="row")
@@ -290,7 +319,7 @@ def _figure_v2(plt, m, ma):
         for j, (pname, plane, girdle) in enumerate(cells):
             ax, key = axes[i, j], f"{m}/{coord}/{plane}/{girdle}"
             _draw_references(ax, m, x, ma["references_mm"][key])
-            ax.plot(xf, ma["model_fine_mm"][key], "k-", lw=2, label="v2 model")
+            ax.plot(xf, ma["model_fine_mm"][key], "k-", lw=2, label=f"{'v2' if version == '2' else 'full'} model")
             ax.axhline(0, color="0.5", lw=0.5)
             ax.set_title(f"{references.DOF_LABELS[coord]}: {pname} ({plane} deg), girdle {girdle}", fontsize=9)
             ax.set_xlabel("elevation (deg)") if i == 2 else None
@@ -298,7 +327,8 @@ def _figure_v2(plt, m, ma):
     axes[0, 0].legend(fontsize=7, loc="best")
     parent = mobl_data.PATH_SOURCE.get(m) == "mobl_arms"  # ssp: the parent's own path (docs/model_v2.md)
     own, match = ("the parent's own path", "parent") if parent else ("MyoArm's path", "MyoArm")
-    fig.suptitle(f"{anatomy.MUSCLE_NAMES[m]} ({m}): v2 kinematic model against the references, rotation 0 "
-                 f"(v2 = {own}: its {match} match is near-tautological; the {match} curve lies under v2's)")
+    fig.suptitle(f"{NAMES[m]} ({m}): {'v2' if version == '2' else 'full'} kinematic model against the references, "
+                 f"rotation 0 ({'v2' if version == '2' else 'model'} = {own}: its {match} match is near-tautological; "
+                 f"the {match} curve lies under the model's)")
     fig.tight_layout()
     return fig

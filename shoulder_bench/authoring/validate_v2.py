@@ -52,20 +52,21 @@ FORCE_QUANTITIES = ("relaxed_rest_deg", "passive_angle_deg", "passive_torque_Nm"
                     "capacity_ratio_ssp_dmi", "ssp_static_reach_deg")
 
 
-def curves(model, refs, elevations) -> tuple[dict, dict]:
-    """v2 moment arms (mm) over `elevations` at rotation 0 in both planes and girdle modes, about every coordinate:
+def curves(model, refs, elevations, muscles=anatomy.MUSCLES, planes=PLANES) -> tuple[dict, dict]:
+    """Moment arms (mm) of `muscles` (default v2's four; the full shoulder's, `validate_full`) over `elevations` at
+    rotation 0 in `planes` (default both) and both girdle modes, about every coordinate:
     ({(muscle, coordinate, plane, girdle): array}, {(tendon, coordinate, plane, girdle): array})."""
-    tendons, n = list(V.V2_TENDONS), len(elevations)
-    poses = [(p, float(e), 0.0) for p in PLANES for e in elevations]
+    tendons, n = [t for m in muscles for t in references.FULL_TENDONS[m]], len(elevations)
+    poses = [(p, float(e), 0.0) for p in planes for e in elevations]
     ours, bundles = {}, {}
     for g in references.GIRDLES:
         arms = moment_arms(model, tendons, poses, g)
         for c in references.COORDINATES:
-            for i, p in enumerate(PLANES):
+            for i, p in enumerate(planes):
                 block = arms[c][i * n:(i + 1) * n]
                 for j, t in enumerate(tendons):
                     bundles[(t, c, p, g)] = block[:, j]
-                for m in anatomy.MUSCLES:
+                for m in muscles:
                     ours[(m, c, p, g)] = sum(w * block[:, tendons.index(t)] for t, w in refs.v2_weights(m).items())
     return ours, bundles
 
@@ -82,13 +83,13 @@ def _envelope(mine, used: dict) -> dict:
             "lo_mm": env["lo_mm"], "hi_mm": env["hi_mm"]}
 
 
-def moment_arm_section(refs, grid: dict, fine: dict, bundles: dict) -> dict:
+def moment_arm_section(refs, grid: dict, fine: dict, bundles: dict, muscles=anatomy.MUSCLES, planes=PLANES) -> dict:
     """Curves, per-reference RMSE and the envelope excursion for every muscle, DOF, plane and girdle."""
     rows, ref_curves = [], {}
-    for m in anatomy.MUSCLES:
+    for m in muscles:
         excluded = references.ENVELOPE_EXCLUDED.get(m, {})
         for coord in references.COORDINATES:
-            for plane in PLANES:
+            for plane in planes:
                 for girdle in references.GIRDLES:
                     ref = {r: refs.curve(r, m, coord, plane, girdle, V.ELEVATIONS) for r in references.REFERENCES}
                     ref_curves[f"{m}/{coord}/{plane}/{girdle}"] = {r: np.round(v, 3).tolist() for r, v in ref.items()}
