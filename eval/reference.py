@@ -16,7 +16,7 @@ import numpy as np
 import torch
 
 from shoulder_bench import protocol, statics
-from shoulder_bench.arm import arm
+from shoulder_bench.arm import arm_for
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
 from shoulder_bench.tasks import TASKS, check_name
 
@@ -31,7 +31,7 @@ class ReferenceController:
         muscles, discrete, _ = TASKS[check_name(task)]
         if discrete:
             raise ValueError(f"the reference controller acts continuously; use {task.replace('_discrete', '')}")
-        self.arm = arm()
+        self.arm = arm_for(condition)  # the condition's geometry (ld_transfer: its model and tables)
         self.law = self.arm.load_law(muscle_model, muscles, condition, **fractions)
         # reduced along the coupling (linear couplings: constant); joint_damping: the task option's, if set
         self.damping = self.arm.damping() if joint_damping is None else float(joint_damping)

@@ -27,6 +27,13 @@ MODEL_VERSION = "2"  # recorded in every run and policy; bump when the tasks' mo
 TASK_PLANE_DEG = 0  # the tasks' plane of elevation: coronal (docs/model_v2.md "The tasks' plane")
 MODEL_FILE = MODELS_DIR / "shoulder_v2_task.xml"
 TABLE_FOLDER = MODELS_DIR / "muscles_v2"
+MODEL_3DOF_FILE = MODELS_DIR / "shoulder_v2.xml"
+# Geometries other than the intact shoulder's (a condition that reroutes a tendon, `conditions.Condition.geometry`):
+# its tasks' model, its 3-DOF model, the folder of the rerouted tendons' tables (the others keep TABLE_FOLDER's).
+# Written by `python -m shoulder_bench.authoring.mobl` (authoring/transfer.py) and the v2 table builders.
+GEOMETRIES = {"ld_transfer": {"model": MODELS_DIR / "shoulder_v2_task_ld_transfer.xml",
+                              "model_3dof": MODELS_DIR / "shoulder_v2_ld_transfer.xml",
+                              "tables": MODELS_DIR / "muscles_v2_ld_transfer", "tendons": ("ld1", "ld2", "ld3")}}
 JOINT = "shoulder_elv"  # the driver of the girdle couplings and the tasks' angle
 ACTUATORS = {"ssp": ("ssp",), "isp": ("isp",), "dmi": ("dmi",), "ld": ("ld1", "ld2", "ld3")}
 MUSCLES = tuple(ACTUATORS)  # the tasks' muscles
@@ -70,9 +77,22 @@ def actuators_of(muscles) -> tuple[str, ...]:
     return tuple(a for m in ACTUATORS if m in muscles for a in ACTUATORS[m])
 
 
-def compile_arm() -> mujoco.MjModel:
-    """The task model, compiled and with its couplings hardened (thread-safe, as `model.compile_model`)."""
-    return compile_model(MODEL_FILE, prepare=harden_couplings)
+def _geometry(geometry: str | None) -> dict:
+    if geometry is not None and geometry not in GEOMETRIES:
+        raise ValueError(f"unknown geometry {geometry!r}; choose from {sorted(GEOMETRIES)} or None (intact)")
+    return {"model": MODEL_FILE, "model_3dof": MODEL_3DOF_FILE, "tables": TABLE_FOLDER, "tendons": ()} \
+        if geometry is None else GEOMETRIES[geometry]
+
+
+def model_file(geometry: str | None = None, dofs: int = 1):
+    """The tasks' model file of `geometry` (None: the intact shoulder, `MODEL_FILE`); dofs=3: its 3-DOF model."""
+    return _geometry(geometry)["model" if dofs == 1 else "model_3dof"]
+
+
+def compile_arm(geometry: str | None = None) -> mujoco.MjModel:
+    """The task model (of `geometry`, default intact), compiled and with its couplings hardened (thread-safe, as
+    `model.compile_model`)."""
+    return compile_model(model_file(geometry), prepare=harden_couplings)
 
 
 class LockedPath:
@@ -168,8 +188,9 @@ class Arm(LockedPath):
     """The tasks' arm with its reduced quantities tabled on a fine grid over the elevation joint's range (linear
     interpolation; the tables are exact samples of `LockedPath`'s functions)."""
 
-    def __init__(self):
-        super().__init__()
+    def __init__(self, geometry: str | None = None):
+        super().__init__(compile_arm(geometry))
+        self.geometry = geometry
         lo, hi = RANGE_DEG
         self._grid = np.radians(np.arange(lo - VALID_MARGIN_DEG, hi + VALID_MARGIN_DEG + 1e-9, FINE_STEP_DEG))
         self._gravity = np.array([super(Arm, self).gravity_torque(q) for q in self._grid])
@@ -188,26 +209,45 @@ class Arm(LockedPath):
         return dict(zip(names, self.tendon_geometry(angle_deg, names)[1].T))
 
     def load_law(self, muscle_model: str, muscles=tuple(ACTUATORS), condition: str | None = None, **fractions):
-        """The tasks' force law of `muscles` (v2 tables, `TABLE_FOLDER`), one activation per muscle; `condition`
-        (`shoulder_bench.conditions`, with its fractions tear_fraction, weakness_fraction) scales or removes muscles
-        in a new law (a bad or needed-muscle-removing condition raises ValueError before any table is read)."""
-        from shoulder_bench.conditions import factors
+        """The tasks' force law of `muscles` (v2 tables, `TABLE_FOLDER`; a rerouted tendon's from its geometry's
+        folder), one activation per muscle; `condition` (`shoulder_bench.conditions`, with its fractions
+        tear_fraction, weakness_fraction) scales or removes muscles in a new law (a bad or needed-muscle-removing
+        condition raises ValueError before any table is read). The condition's geometry must be this arm's
+        (`arm_for(condition)` gives that arm)."""
+        from shoulder_bench.conditions import factors, geometry
         from shoulder_bench.muscle import ForceLaw
 
         acts = actuators_of(muscles)
         scale = factors(condition, tuple(m for m in ACTUATORS if m in muscles), **fractions)
+        if geometry(condition) != self.geometry:
+            raise ValueError(f"condition {condition!r} has geometry {geometry(condition)!r}, this arm "
+                             f"{self.geometry!r}: load the law from arm.arm_for(condition)")
         groups = {m: ACTUATORS[m] for m in ACTUATORS if m in muscles}
-        law = ForceLaw.load(muscle_model, muscles=acts, folder=TABLE_FOLDER, arms=self.moment_arms, groups=groups)
+        own = _geometry(self.geometry)
+        by_folder = {}  # folder -> its actuators
+        for a in acts:
+            by_folder.setdefault(own["tables"] if a in own["tendons"] else TABLE_FOLDER, []).append(a)
+        tables = {t.muscle: t for folder, names in by_folder.items()
+                  for t in ForceLaw.load(muscle_model, muscles=names, folder=folder, arms=self.moment_arms).tables}
+        law = ForceLaw([tables[a] for a in acts], groups)
         return law.scaled(scale) if scale else law
 
 
-_ARM: list[Arm] = []
+_ARM: dict[str | None, Arm] = {}
 _ARM_LOCK = threading.Lock()
 
 
-def arm() -> Arm:
-    """The tasks' arm (built once per process, thread-safe)."""
+def arm(geometry: str | None = None) -> Arm:
+    """The tasks' arm of `geometry` (None: the intact shoulder; built once per process each, thread-safe)."""
+    _geometry(geometry)
     with _ARM_LOCK:
-        if not _ARM:
-            _ARM.append(Arm())
-        return _ARM[0]
+        if geometry not in _ARM:
+            _ARM[geometry] = Arm(geometry)
+        return _ARM[geometry]
+
+
+def arm_for(condition: str | None) -> Arm:
+    """The arm whose geometry `condition` has (`conditions.geometry`: the intact one unless it reroutes a tendon)."""
+    from shoulder_bench.conditions import geometry
+
+    return arm(geometry(condition))

@@ -6,9 +6,12 @@ muscle's whole tabled tendon force, active and passive alike (the tendon transmi
 muscle would), and its tabled torque; the moment arms, the force-velocity curve and the geometry are unchanged.
 `ForceLaw.scaled` applies the factors to every table of a muscle (ld's three bundles).
 
-Names compose with "+" (`posterosuperior_tear+deltoid_weakness`); factors multiply. `condition=None` is the intact
-(pre-op) shoulder. Conditions that change the geometry (`ld_transfer`: the latissimus re-inserted on the greater
-tuberosity) need a rerouted path and rebuilt FEM tables; they are not in this step (docs/surgery.md).
+A condition may also change the geometry (`geometry`: a key of `arm.GEOMETRIES`): `ld_transfer` re-inserts the
+latissimus on the greater tuberosity, so the task loads that geometry's model (ld1-3 rerouted) and the rerouted
+tendons' own tables (`arm.arm_for(condition)`; docs/surgery.md "ld_transfer").
+
+Names compose with "+" (`posterosuperior_tear+ld_transfer`, the operation's clinical case); factors multiply; at
+most one geometry. `condition=None` is the intact (pre-op) shoulder.
 """
 from __future__ import annotations
 
@@ -17,9 +20,7 @@ import numbers
 from dataclasses import dataclass, field
 
 FRACTIONS = {"tear_fraction": 0.5, "weakness_fraction": 0.5}  # the fraction options and their defaults
-NOT_YET = {"ld_transfer": "the latissimus dorsi transfer re-inserts the tendon on the greater tuberosity: it needs "
-                          "the rerouted path, its wrapping and FEM tables rebuilt for the new geometry (the next step "
-                          "of issue 13, docs/surgery.md); it is not available yet"}
+NOT_YET: dict[str, str] = {}  # conditions named but not built (name -> why), refused with that reason
 
 
 @dataclass(frozen=True)
@@ -29,6 +30,7 @@ class Condition:
     source: str
     removes: tuple[str, ...] = ()  # muscles that exert no force (active or passive)
     scales: dict[str, str] = field(default_factory=dict)  # muscle -> the fraction option: force x (1 - fraction)
+    geometry: str | None = None  # a rerouting (a key of arm.GEOMETRIES): its model and the rerouted tendons' tables
 
 
 CONDITIONS = {c.name: c for c in (
@@ -44,6 +46,12 @@ CONDITIONS = {c.name: c for c in (
     Condition("deltoid_weakness", "middle deltoid weakness (e.g. axillary nerve palsy): its tendon force scaled by "
               "1 - weakness_fraction", "issue 13; McCully et al. 2007, J Biomech 40:1839 (the deltoid's role when "
               "the cuff is lost)", scales={"dmi": "weakness_fraction"}),
+    Condition("ld_transfer", "latissimus dorsi transfer: ld1-3 detached from the intertubercular groove and "
+              "re-inserted on the greater tuberosity at the infraspinatus footprint, wrapping over the posterior "
+              "humeral head; re-tensioned to their fibre stretch at the side; its own model and tables (compose "
+              "with posterosuperior_tear for the operation's indication)", "Gerber et al. 1988, Clin Orthop 232:51 "
+              "(the operation); Muench et al. 2022 (+8.9 deg of maximum active abduction after the transfer); "
+              "issue 13 (external-rotation moment arm 6.5-10.6 mm at 0 deg abduction)", geometry="ld_transfer"),
 )}
 
 
@@ -64,6 +72,14 @@ def names(condition: str | None) -> tuple[str, ...]:
     if len(set(parts)) != len(parts):
         raise ValueError(f"condition {condition!r} names a condition twice")
     return parts
+
+
+def geometry(condition: str | None) -> str | None:
+    """The geometry `condition` puts the shoulder in (None: the intact one); two different ones are a ValueError."""
+    geos = {CONDITIONS[p].geometry for p in names(condition)} - {None}
+    if len(geos) > 1:
+        raise ValueError(f"condition {condition!r} combines geometries {sorted(geos)}; at most one can apply")
+    return next(iter(geos), None)
 
 
 def fraction(name: str, value) -> float:

@@ -103,10 +103,11 @@ class Physics(_Physics):
 
 def make_physics(muscles, muscle_model: str, condition: dict | None = None) -> Physics:
     """The physics of `muscles` with the law of `muscle_model`; condition: `Abduction.condition` (the condition and
-    its fractions, `shoulder_bench.conditions`), default the intact shoulder."""
-    the_arm = arm_.arm()
+    its fractions, `shoulder_bench.conditions`), default the intact shoulder. A condition with a geometry
+    (ld_transfer) gets that geometry's model and tables (`arm.arm_for`)."""
+    the_arm = arm_.arm_for((condition or {}).get("condition"))
     law = the_arm.load_law(muscle_model, muscles, **(condition or {}))  # checked before the (slower) compile
-    model = arm_.compile_arm()
+    model = arm_.compile_arm(the_arm.geometry)
     attach_law(model, law)
     install_callbacks()
     return Physics.from_model(wrapper.MjModel(model))

@@ -51,12 +51,13 @@ class VecEnv(_RslVecEnv):
         self.muscles, self.discrete, self.n = tuple(muscles), discrete, len(muscles)
         self.num_actions = self.n
         self.cfg = {"task": name, "muscle_model": muscle_model, **options}
-        self.arm = arm_.arm()
+        self.arm = arm_.arm_for(self.task.condition.get("condition"))  # a rerouting condition's geometry
         self.law = self.arm.load_law(muscle_model, self.muscles, **self.task.condition)  # the task's condition
         # MuJoCo's own RK4 with the compiled callbacks (one rollout per frame), where they are available
         # randomize: one model per copy, compiled without the textures (randomization.physics_only_xml)
-        source = {"path": arm_.MODEL_FILE} if self.task.randomize is None else {
-            "xml": randomization.physics_only_xml(arm_.MODEL_FILE)}
+        model_file = arm_.model_file(self.arm.geometry)  # the condition's geometry (ld_transfer reroutes ld)
+        source = {"path": model_file} if self.task.randomize is None else {
+            "xml": randomization.physics_only_xml(model_file)}
         self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread, prepare=harden_couplings,
                                   engine=batch_engine(), **source)
         self.sim.model.dof_damping[self.sim.dadr] = self.task.joint_damping

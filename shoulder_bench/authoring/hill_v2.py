@@ -20,7 +20,9 @@ on the law's joint shoulder_elv). Tables from another source
 
 ld1-3 are three tables and three actuators: driving them with one "ld" activation is for the tasks' switch-over.
 
-`python -m shoulder_bench.authoring.hill_v2 [--plane 0]` rewrites the tables (default plane: validate.TASK_PLANE_V2).
+`python -m shoulder_bench.authoring.hill_v2 [--plane 0] [--variant ld_transfer]` rewrites the tables (default plane:
+validate.TASK_PLANE_V2). `variant` (`transfer.VARIANTS`): "ld_transfer" builds ld1-3's tables on the latissimus
+transfer's model with its re-tensioned slack lengths into models/muscles_v2_ld_transfer (docs/surgery.md).
 """
 from __future__ import annotations
 
@@ -32,7 +34,7 @@ import mujoco
 import numpy as np
 
 from shoulder_bench import arm
-from shoulder_bench.authoring import mobl, statics_v2, tendons
+from shoulder_bench.authoring import statics_v2, transfer
 from shoulder_bench.authoring.hill import ACTIVATION_GRID, ANGLE_GRID_DEG
 from shoulder_bench.model import MODELS_DIR, attach_law, compile_model, install_callbacks
 from shoulder_bench.muscle import ForceLaw, replacing, table_path
@@ -52,21 +54,28 @@ def default_plane() -> int:
     return int(TASK_PLANE_V2)
 
 
-def geometry(plane_deg: float, angle_deg=ANGLE_GRID_DEG) -> tuple[np.ndarray, np.ndarray]:
-    """(lengths (K, 6) m, total coupled moment arms r = -ten_J S (K, 6) m) of the locked variant, TENDONS order."""
-    return statics_v2.LockedPath(plane_deg).tendon_geometry(angle_deg, TENDONS)
+def geometry(plane_deg: float, angle_deg=ANGLE_GRID_DEG, variant: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(lengths (K, n) m, total coupled moment arms r = -ten_J S (K, n) m) of the locked variant, TENDONS order (a
+    `variant`'s tendons on its model)."""
+    v = transfer.variant(variant)
+    if v.name is None:
+        return statics_v2.LockedPath(plane_deg).tendon_geometry(angle_deg, TENDONS)
+    model = mujoco.MjModel.from_xml_string(v.model_xml(locked_plane_deg=plane_deg))
+    return statics_v2.LockedPath(model=model).tendon_geometry(angle_deg, v.tendons)
 
 
-def tables(plane_deg: float) -> dict[str, dict]:
+def tables(plane_deg: float, variant: str | None = None) -> dict[str, dict]:
     """The arrays and meta of each tendon's table (what `build_tables` writes)."""
-    L, r = geometry(plane_deg)
-    parent = tendons.load_parent()
+    L, r = geometry(plane_deg, variant=variant)
+    v = transfer.variant(variant)
+    params = v.parameters()
     out = {}
-    for k, t in enumerate(TENDONS):
-        p = parent[PARENT_MUSCLE[t]]
+    for k, t in enumerate(v.tendons):
+        p = params[t]
         f = np.stack([statics_v2.tendon_force(L[:, k], p, a) for a in ACTIVATION_GRID], axis=1)
         meta = {"model": "hill", "source": "hill", "muscle": t, "parent_muscle": PARENT_MUSCLE[t],
-                "model_file": f"mobl.model_xml(locked_plane_deg={plane_deg:g})", "plane_deg": float(plane_deg),
+                "model_file": f"{'mobl' if v.name is None else 'transfer'}.model_xml(locked_plane_deg={plane_deg:g})",
+                "plane_deg": float(plane_deg),
                 "joint": arm.JOINT, "girdle": "coupled",
                 "law": "statics_v2.tendon_force: rigid tendon, constant-width pennation, Blemker curves "
                        "(fem.material), F = F0 (a f_active + f_passive) cos(pennation)",
@@ -76,17 +85,19 @@ def tables(plane_deg: float) -> dict[str, dict]:
                 "grid": {"angle_deg": [ANGLE_GRID_DEG[0], ANGLE_GRID_DEG[-1], 5.0],
                          "activation": ACTIVATION_GRID.tolist()},
                 "code_version": CODE_VERSION}
+        if v.name is not None:
+            meta.update(variant=v.name, tendon_slack_rule=transfer.SLACK_RULE)
         out[t] = {"angle_deg": ANGLE_GRID_DEG, "activation": ACTIVATION_GRID, "force_N": f,
                   "torque_Nm": f * r[:, k:k + 1], "moment_arm_m": r[:, k].copy(), "meta": meta}
     return out
 
 
-def build_tables(plane_deg: float | None = None, folder: Path | None = None) -> list[Path]:
-    """Write models/muscles_v2/<tendon>_hill.npz (atomically, `muscle.replacing`)."""
+def build_tables(plane_deg: float | None = None, folder: Path | None = None, variant: str | None = None) -> list[Path]:
+    """Write models/muscles_v2/<tendon>_hill.npz (a variant's: its folder; atomically, `muscle.replacing`)."""
     plane = default_plane() if plane_deg is None else plane_deg
     written = []
-    for t, arrays in tables(plane).items():
-        out = table_path(t, "hill", folder or FOLDER)
+    for t, arrays in tables(plane, variant).items():
+        out = table_path(t, "hill", folder or transfer.variant(variant).folder)
         with replacing(out) as tmp:
             np.savez(tmp, **{k: v for k, v in arrays.items() if k != "meta"},
                      meta=np.array(json.dumps(arrays["meta"])))
@@ -97,15 +108,17 @@ def build_tables(plane_deg: float | None = None, folder: Path | None = None) -> 
 REBUILD_V2 = {"hill": "python -m shoulder_bench.authoring.hill_v2", "fem": "python -m shoulder_bench.authoring.fem.v2"}
 
 
-def load_law(plane_deg: float | None = None, folder: Path | None = None, source: str = "hill") -> ForceLaw:
-    """The v2 tables of `source` ("hill" or "fem") as a `ForceLaw` (`ForceLaw.load` on the v2 folder), checked
-    against the locked variant's coupled moment arms in `plane_deg` (`geometry`) and refused if built for another
-    plane."""
+def load_law(plane_deg: float | None = None, folder: Path | None = None, source: str = "hill",
+             variant: str | None = None) -> ForceLaw:
+    """The v2 tables of `source` ("hill" or "fem") as a `ForceLaw` (`ForceLaw.load` on the v2 folder, or a
+    variant's tendons in its folder), checked against the locked variant's coupled moment arms in `plane_deg`
+    (`geometry`) and refused if built for another plane."""
     plane = default_plane() if plane_deg is None else float(plane_deg)
-    fix = f"rebuild with `{REBUILD_V2[source]} --plane {plane:g}`"
+    v = transfer.variant(variant)
+    fix = f"rebuild with `{REBUILD_V2[source]} --plane {plane:g}" + (f" --variant {v.name}`" if v.name else "`")
     try:
-        law = ForceLaw.load(source, muscles=TENDONS, folder=folder or FOLDER,
-                            arms=lambda grid: dict(zip(TENDONS, geometry(plane, grid)[1].T)))
+        law = ForceLaw.load(source, muscles=v.tendons, folder=folder or v.folder,
+                            arms=lambda grid: dict(zip(v.tendons, geometry(plane, grid, variant)[1].T)))
     except ValueError as exc:
         if "does not match the model" not in str(exc):
             raise
@@ -116,14 +129,14 @@ def load_law(plane_deg: float | None = None, folder: Path | None = None, source:
     return law
 
 
-def compile_actuated(plane_deg: float) -> mujoco.MjModel:
+def compile_actuated(plane_deg: float, variant: str | None = None) -> mujoco.MjModel:
     """The locked variant with actuators and dynamics settings (`model.compile_model`, then `arm.harden_couplings`)."""
-    xml = mobl.model_xml(locked_plane_deg=plane_deg, dynamics=True, actuators=True)
+    xml = transfer.variant(variant).model_xml(locked_plane_deg=plane_deg, dynamics=True, actuators=True)
     return compile_model(xml=xml, prepare=arm.harden_couplings)
 
 
 def applied_vs_table(plane_deg: float | None = None, folder: Path | None = None,
-                     source: str = "hill") -> dict[str, dict]:
+                     source: str = "hill", variant: str | None = None) -> dict[str, dict]:
     """At every grid pose and activation level, the generalised force MuJoCo applies along shoulder_elv (S^T
     qfrc_actuator, qvel 0) against the table's torque_Nm; per tendon the max error in N m and as % of the muscle's
     peak |torque_Nm|.
@@ -132,9 +145,11 @@ def applied_vs_table(plane_deg: float | None = None, folder: Path | None = None,
     `model.attach_law` (joint shoulder_elv) and the callbacks installed, `mj_forward`. One tendon at a time: a law
     of that tendon's table alone is attached, so the other actuators exert nothing (the callback gives them zero)."""
     plane = default_plane() if plane_deg is None else plane_deg
-    law = load_law(plane, folder, source)
-    m = compile_actuated(plane)
-    d, path = mujoco.MjData(m), statics_v2.LockedPath(plane)
+    law = load_law(plane, folder, source, variant)
+    m = compile_actuated(plane, variant)
+    d = mujoco.MjData(m)
+    path = statics_v2.LockedPath(model=mujoco.MjModel.from_xml_string(
+        transfer.variant(variant).model_xml(locked_plane_deg=plane)))
     if path.m.nv != m.nv:
         raise ValueError("the actuated variant's chain differs from statics_v2.LockedPath's")
     install_callbacks()
@@ -163,12 +178,15 @@ def applied_vs_table(plane_deg: float | None = None, folder: Path | None = None,
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description="v2 Hill tables (models/muscles_v2/<tendon>_hill.npz)")
     ap.add_argument("--plane", type=float, default=None, help="plane of elevation, deg (default TASK_PLANE_V2)")
-    ap.add_argument("--folder", type=Path, default=None, help="output folder (default models/muscles_v2)")
+    ap.add_argument("--folder", type=Path, default=None, help="output folder (default models/muscles_v2, or the "
+                    "variant's)")
+    ap.add_argument("--variant", choices=[k for k in transfer.VARIANTS if k], default=None,
+                    help="a rerouted geometry's tables (ld_transfer: ld1-3 into models/muscles_v2_ld_transfer)")
     args = ap.parse_args(argv)
-    for p in build_tables(args.plane, args.folder):
+    for p in build_tables(args.plane, args.folder, args.variant):
         print(p)
     print("applied (S^T qfrc_actuator) vs table torque, every grid pose and activation level:")
-    for t, r in applied_vs_table(args.plane, args.folder).items():
+    for t, r in applied_vs_table(args.plane, args.folder, "hill", args.variant).items():
         print(f"  {t:4s} max |err| {r['max_err_Nm']:.3e} N m = {r['max_err_pct_of_peak']:.2e} % of peak "
               f"{r['peak_Nm']:.3f} N m (bound {BOUND_PCT:g} %)")
     return 0

@@ -358,5 +358,7 @@ def write_model(models_dir: Path | None = None) -> list[Path]:
 
 
 if __name__ == "__main__":
-    for p in write_model():
+    from shoulder_bench.authoring import transfer  # the latissimus transfer's variants of both files (issue 13)
+
+    for p in (*write_model(), *transfer.write_models()):
         print(p)

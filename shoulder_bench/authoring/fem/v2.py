@@ -1,4 +1,6 @@
-"""FEM tables of the v2 muscles: `python -m shoulder_bench.authoring.fem.v2 [--coarse] [--out DIR] [--plane P]`.
+"""FEM tables of the v2 muscles: `python -m shoulder_bench.authoring.fem.v2 [--coarse] [--out DIR] [--plane P]
+[--variant ld_transfer]` (a variant: its tendons on its model with its fibre parameters, into its folder;
+`transfer.VARIANTS`, docs/surgery.md).
 
 One table per v2 tendon (ssp, isp, dmi, ld1, ld2, ld3) of the locked 1-DOF variant, `models/muscles_v2/<t>_fem.npz`,
 in hill_v2's format (angle_deg = hill.ANGLE_GRID_DEG, activation, force_N, torque_Nm, moment_arm_m, meta) so that
@@ -30,7 +32,7 @@ import numpy as np
 from tqdm import tqdm
 
 from shoulder_bench import arm
-from shoulder_bench.authoring import hill_v2, tendons
+from shoulder_bench.authoring import hill_v2, transfer
 from shoulder_bench.authoring.fem import output_folder, quantised, rounded
 from shoulder_bench.authoring.fem.build import NOISE_FORCE_N
 from shoulder_bench.authoring.fem.material import Material
@@ -47,9 +49,9 @@ ACTIVATIONS = np.array([0.0, 0.1, 0.25, 0.5, 0.75, 1.0])
 SETTINGS = SolverSettings(max_step_deg=5.0)  # here: continuation steps of <= 5 % axial strain (v2_sheet)
 
 
-def specs() -> dict[str, SheetSpec]:
-    parent = tendons.load_parent()
-    return {t: SheetSpec.from_parent(t, parent[hill_v2.PARENT_MUSCLE[t]]) for t in TENDONS}
+def specs(variant: str | None = None) -> dict[str, SheetSpec]:
+    params = transfer.variant(variant).parameters()
+    return {t: SheetSpec.from_parent(t, p) for t, p in params.items()}
 
 
 def grid_dict() -> dict:
@@ -67,12 +69,12 @@ def input_hash(spec: SheetSpec, resolution, extents: np.ndarray, material: Mater
 
 
 def input_hashes(plane_deg: float, coarse: bool = False, material: Material | None = None,
-                 settings: SolverSettings | None = None) -> dict[str, str]:
+                 settings: SolverSettings | None = None, variant: str | None = None) -> dict[str, str]:
     """What each table's input_hash would be (no solving): the shipped tables must carry these."""
-    L, _ = hill_v2.geometry(plane_deg)
+    L, _ = hill_v2.geometry(plane_deg, variant=variant)
     res = "coarse" if coarse else "full"
     return {t: input_hash(s, res, L[:, k] - s.l_ts, material or Material(), settings or SETTINGS)
-            for k, (t, s) in enumerate(specs().items())}
+            for k, (t, s) in enumerate(specs(variant).items())}
 
 
 def solve(spec: SheetSpec, extents: np.ndarray, resolution, material: Material, settings: SolverSettings,
@@ -105,18 +107,20 @@ def _cached(path: Path, digest: str) -> dict | None:
 
 
 def build(plane_deg: float | None = None, coarse: bool = False, out: Path | None = None, quiet: bool = False,
-          material: Material | None = None, settings: SolverSettings | None = None) -> dict[str, dict]:
-    """Build (or reuse) each tendon's table in `out` (default models/muscles_v2). Returns {tendon: meta + cached,
-    written}. --coarse needs --out (coarse tables never replace the shipped ones)."""
+          material: Material | None = None, settings: SolverSettings | None = None,
+          variant: str | None = None) -> dict[str, dict]:
+    """Build (or reuse) each tendon's table in `out` (default models/muscles_v2, or the variant's folder). Returns
+    {tendon: meta + cached, written}. --coarse needs --out (coarse tables never replace the shipped ones)."""
+    v = transfer.variant(variant)
     if coarse and out is None:
-        raise ValueError(f"--coarse without --out would replace the full tables in {FOLDER}; give --out DIR")
-    folder = output_folder(out if out is not None else FOLDER, "--out")
+        raise ValueError(f"--coarse without --out would replace the full tables in {v.folder}; give --out DIR")
+    folder = output_folder(out if out is not None else v.folder, "--out")
     plane = hill_v2.default_plane() if plane_deg is None else float(plane_deg)
     material, settings = material or Material(), settings or SETTINGS
     res = "coarse" if coarse else "full"
-    L, r = hill_v2.geometry(plane)
+    L, r = hill_v2.geometry(plane, variant=variant)
     todo, result = [], {}
-    for k, (t, spec) in enumerate(specs().items()):
+    for k, (t, spec) in enumerate(specs(variant).items()):
         digest = input_hash(spec, res, L[:, k] - spec.l_ts, material, settings)
         path = table_path(t, "fem", folder)
         old = _cached(path, digest)
@@ -131,6 +135,9 @@ def build(plane_deg: float | None = None, coarse: bool = False, out: Path | None
             if old is None:
                 fem = solve(spec, L[:, k] - spec.l_ts, res, material, settings, bar)
                 meta = _meta(t, spec, plane, res, digest, material, settings, fem, time.perf_counter() - t0)
+                if v.name is not None:
+                    meta.update(variant=v.name, tendon_slack_rule=transfer.SLACK_RULE,
+                                model_file=meta["model_file"].replace("mobl.", "transfer."))
             else:  # inputs unchanged, only the model's moment arms moved: refresh the arms and torque
                 fem = {key: old[key] for key in ("lateral_force_N", "newton_iterations", "fibre_stretch",
                                                  "stalled_solves")}
@@ -188,10 +195,12 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=None, help=f"output folder, created if missing (default {FOLDER})")
     ap.add_argument("--plane", type=float, default=None, help="plane of elevation, deg (default TASK_PLANE_V2)")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    ap.add_argument("--variant", choices=[k for k in transfer.VARIANTS if k], default=None,
+                    help="a rerouted geometry's tables (ld_transfer: ld1-3 into models/muscles_v2_ld_transfer)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     try:
-        metas = build(args.plane, coarse=args.coarse, out=args.out, quiet=args.quiet)
+        metas = build(args.plane, coarse=args.coarse, out=args.out, quiet=args.quiet, variant=args.variant)
     except ValueError as exc:
         ap.error(str(exc))
     for t, m in metas.items():
@@ -205,13 +214,13 @@ def main(argv=None) -> int:
     print(f"total {time.perf_counter() - t0:.1f} s")
     if all(m["cached"] and not m["written"] for m in metas.values()):
         return 0
-    folder = args.out if args.out is not None else FOLDER
+    folder = args.out if args.out is not None else transfer.variant(args.variant).folder
     print("applied (S^T qfrc_actuator) vs table torque, every grid pose and activation level:")
-    for t, r in v2_check.applied_vs_table("fem", args.plane, folder).items():
+    for t, r in v2_check.applied_vs_table("fem", args.plane, folder, args.variant).items():
         print(f"  {t:4s} max |err| {r['max_err_Nm']:.3e} N m = {r['max_err_pct_of_peak']:.2e} % of peak "
               f"{r['peak_Nm']:.3f} N m (bound {hill_v2.BOUND_PCT:g} %)")
     print("FEM vs Hill (models/muscles_v2/<t>_hill.npz), max over the grid, % of the FEM table's peak:")
-    for t, c in v2_check.compare_with_hill(folder).items():
+    for t, c in v2_check.compare_with_hill(folder, variant=args.variant).items():
         print(f"  {t:4s} |dF| {c['force_pct']:5.1f} %  |dtau| {c['torque_pct']:5.1f} %  (largest dF {c['dF_N']:+.1f} N "
               f"at {c['at'][0]:g} deg, a = {c['at'][1]:g}); peak F {c['peak_F_fem_N']:.1f} vs {c['peak_F_hill_N']:.1f} "
               f"N; passive max {c['passive_max_fem_N']:.1f} vs {c['passive_max_hill_N']:.1f} N; stretch FEM "

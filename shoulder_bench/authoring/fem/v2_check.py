@@ -11,37 +11,41 @@ from pathlib import Path
 
 import numpy as np
 
-from shoulder_bench.authoring import hill_v2, statics_v2
+from shoulder_bench.authoring import hill_v2, statics_v2, transfer
 from shoulder_bench.muscle import ForceLaw, MuscleTable, table_path
 
 TENDONS = hill_v2.TENDONS
 
 
-def load_law(source: str = "fem", plane_deg: float | None = None, folder: Path | None = None) -> ForceLaw:
+def load_law(source: str = "fem", plane_deg: float | None = None, folder: Path | None = None,
+             variant: str | None = None) -> ForceLaw:
     """The v2 tables of `source` as a ForceLaw, checked against the locked variant's arms (`hill_v2.load_law`)."""
-    return hill_v2.load_law(plane_deg, folder, source)
+    return hill_v2.load_law(plane_deg, folder, source, variant)
 
 
-def applied_vs_table(source: str = "fem", plane_deg: float | None = None, folder: Path | None = None) -> dict:
+def applied_vs_table(source: str = "fem", plane_deg: float | None = None, folder: Path | None = None,
+                     variant: str | None = None) -> dict:
     """Per tendon: max |S^T qfrc_actuator - torque_Nm| over every grid pose and level, in N m and % of peak
     (`hill_v2.applied_vs_table`)."""
-    return hill_v2.applied_vs_table(plane_deg, folder, source)
+    return hill_v2.applied_vs_table(plane_deg, folder, source, variant)
 
 
-def compare_with_hill(folder: Path | None = None, hill_folder: Path | None = None) -> dict:
+def compare_with_hill(folder: Path | None = None, hill_folder: Path | None = None,
+                      variant: str | None = None) -> dict:
     """Per tendon, FEM vs the Hill table on the FEM's activation levels (the Hill law is linear in activation, so
     interpolating its levels is exact): max |dF| and |dtau| as % of the FEM table's peak |F| and |tau|, where, and
     the fibre stretch range of the FEM (element min..max) and of Hill."""
+    v = transfer.variant(variant)
+    params = v.parameters()
     out = {}
-    for t in TENDONS:
-        fem = np.load(table_path(t, "fem", folder or hill_v2.FOLDER))
-        hill = MuscleTable.load(table_path(t, "hill", hill_folder or hill_v2.FOLDER))
+    for t in v.tendons:
+        fem = np.load(table_path(t, "fem", folder or v.folder))
+        hill = MuscleTable.load(table_path(t, "hill", hill_folder or v.folder))
         a = fem["activation"]
         f_h = np.stack([np.interp(a, hill.activation, row) for row in hill.force_N])
         d_f, d_t = fem["force_N"] - f_h, fem["torque_Nm"] - f_h * fem["moment_arm_m"][:, None]
         i, j = np.unravel_index(np.argmax(np.abs(d_f)), d_f.shape)
-        p = hill_v2.tendons.load_parent()[hill_v2.PARENT_MUSCLE[t]]
-        lam_h, _ = statics_v2.fibres(fem["musculotendon_length_m"], p)
+        lam_h, _ = statics_v2.fibres(fem["musculotendon_length_m"], params[t])
         out[t] = {"force_pct": 100 * float(np.abs(d_f).max() / np.abs(fem["force_N"]).max()),
                   "torque_pct": 100 * float(np.abs(d_t).max() / np.abs(fem["torque_Nm"]).max()),
                   "at": (float(fem["angle_deg"][i]), float(a[j])), "dF_N": float(d_f[i, j]),
