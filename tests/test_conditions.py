@@ -94,7 +94,7 @@ def test_the_preop_model_is_unchanged_by_loading_a_condition():
 @pytest.mark.parametrize("kw, message", [
     ({"condition": "rotator_cuff"}, "unknown condition 'rotator_cuff'; valid conditions: ssp_tear, ssp_partial_tear"),
     ({"condition": "posterosuperior_tear+nope"}, "unknown condition 'nope'"),
-    ({"condition": "ld_transfer"}, "rerouted path"),
+    ({"condition": "ld_transfer+ld_transfer"}, "names a condition twice"),
     ({"condition": 3}, "condition must be None or a name"),
     ({"condition": "ssp_partial_tear", "tear_fraction": 1.0}, r"tear_fraction must be a number in \(0, 1\)"),
     ({"condition": "ssp_partial_tear", "tear_fraction": 0}, r"tear_fraction must be a number in \(0, 1\)"),
@@ -170,7 +170,11 @@ def test_condition_report_runs(capsys):
 
     r = report_module.report(reference=False)
     rows = {row["condition"]: row for row in r["conditions"]}
-    assert list(rows) == ["none", *conditions.CONDITIONS]
+    assert list(rows) == ["none", *conditions.CONDITIONS, "posterosuperior_tear+ld_transfer"]
+    assert rows["ld_transfer"]["max_er_torque_Nm"] > rows["none"]["max_er_torque_Nm"]
+    er = rows["ld_transfer"]["rerouted"]["er_anchor"]
+    assert er["model_mm"] > 0 and er["difference_mm"] == pytest.approx(er["model_mm"] - 10.6)
+    assert "rerouted" not in rows["ssp_tear"] and "model_transfer_deg" in r["muench_anchor"]
     assert rows["ssp_tear"]["static_reach_deg"] < rows["none"]["static_reach_deg"]
     assert rows["deltoid_weakness"]["max_torque_Nm"] < rows["none"]["max_torque_Nm"]
     assert 0.0 < r["ssp_share_anchor"]["model"] < 1.0

@@ -19,9 +19,11 @@ def add_parser(subparsers):
     from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
     from shoulder_bench.muscle import MUSCLE_MODELS
 
-    p = subparsers.add_parser("condition", help="shoulder conditions (cuff tears, deltoid weakness; docs/surgery.md)")
+    p = subparsers.add_parser("condition", help="shoulder conditions (cuff tears, deltoid weakness, the latissimus "
+                              "transfer; docs/surgery.md)")
     sub = p.add_subparsers(dest="condition_command", required=True, metavar="SUBCOMMAND")
-    r = sub.add_parser("report", help="per condition: maximum isometric elevation torque, static reach, the "
+    r = sub.add_parser("report", help="per condition: maximum isometric elevation and external-rotation torque, "
+                       "static reach, the rerouted ld's moment arms, the "
                        "reference controller's test MAE; the supraspinatus share against Phillips et al. 2018")
     r.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     r.add_argument("--muscle-model", choices=MUSCLE_MODELS, default=DEFAULT_MUSCLE_MODEL,
