@@ -37,12 +37,12 @@ CI = ("test_mae", "test_rmse")  # (value, low, high)
 
 def law_for(task: str, muscle_model: str | None, options: dict | None):
     """The force law the task runs with (its muscles, muscle model and shoulder condition)."""
-    from shoulder_bench.arm import arm
+    from shoulder_bench.arm import arm_for
     from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
     from shoulder_bench.tasks import TASKS
 
     cond = {k: v for k, v in (options or {}).items() if k in CONDITION_OPTIONS and v is not None}
-    return arm().load_law(muscle_model or DEFAULT_MUSCLE_MODEL, TASKS[task][0], **cond)
+    return arm_for(cond.get("condition")).load_law(muscle_model or DEFAULT_MUSCLE_MODEL, TASKS[task][0], **cond)
 
 
 def suite_label(spec: str) -> str:

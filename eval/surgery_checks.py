@@ -19,8 +19,8 @@ def condition_options(task: str, condition: str, fractions: dict | None = None) 
     from shoulder_bench.conditions import CONDITIONS, NOT_YET, names
     from shoulder_bench.tasks import check_options
 
-    valid = (f"available: {', '.join(CONDITIONS)} (compose with '+'); not available yet: "
-             + "; ".join(f"{k} ({v.split(':')[0]})" for k, v in NOT_YET.items()))
+    valid = f"available: {', '.join(CONDITIONS)} (compose with '+')" + ("; not available yet: " + "; ".join(
+        f"{k} ({v.split(':')[0]})" for k, v in NOT_YET.items()) if NOT_YET else "")
     try:
         parts = names(condition)
     except ValueError as exc:
@@ -48,12 +48,12 @@ def feasibility(task: str, options: dict | None, muscle_model: str) -> dict:
     hanging (`statics.reach_on_grid`, as the condition report gives it), the angles of the task's test range (the
     test split's 20-100 deg) at which they cannot hold the arm still, and whether they hold all of it."""
     from shoulder_bench import statics
-    from shoulder_bench.arm import RANGE_DEG, arm
+    from shoulder_bench.arm import RANGE_DEG, arm_for
     from shoulder_bench.tasks import TASKS
     from shoulder_bench.trajectory import SPLITS
 
     cond = {k: v for k, v in (options or {}).items() if k in ("condition", *FRACTION_OPTIONS)}
-    law = arm().load_law(muscle_model, TASKS[task][0], **cond)
+    law = arm_for(cond.get("condition")).load_law(muscle_model, TASKS[task][0], **cond)  # ld_transfer: its geometry
     deg = np.round(np.arange(0.0, RANGE_DEG[1], 0.1), 1)
     q = np.radians(deg)
     cap, grav = statics.static_capacity(law, q), statics.gravity_torque(q)

@@ -12,8 +12,8 @@ def add_parser(sub) -> None:
                        "accuracy, from scratch, activation shifts (docs/surgery.md)")
     p.add_argument("--task", nargs="+", required=True, help="task(s), e.g. abduction_4m")
     p.add_argument("--condition", nargs="+", required=True,
-                   help=f"post-op condition(s): {', '.join(CONDITIONS)} (compose with '+'); not available yet: "
-                        f"{', '.join(NOT_YET)}")
+                   help=f"post-op condition(s): {', '.join(CONDITIONS)} (compose with '+')"
+                        + (f"; not available yet: {', '.join(NOT_YET)}" if NOT_YET else ""))
     p.add_argument("--algo", choices=ALGOS, default=None,
                    help="default: the task's (ppo continuous, bdq four-muscle discrete, dqn one-muscle discrete)")
     p.add_argument("--seeds", nargs="+", type=int, default=[0])
