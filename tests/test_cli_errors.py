@@ -200,3 +200,21 @@ def test_reproduce_bad_arguments_fail_before_training(tmp_path, capsys, no_work)
     assert _error(capsys, ["reproduce", "--table", str(tmp_path), "--runs", str(tmp_path / "r")]) == (
         f"--table {tmp_path} is a directory; give a file name such as {tmp_path / 'table.md'}")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_each_cli_module_registers_the_commands_the_lazy_dispatch_expects():
+    """main() imports only the module of the command it is given (cli.REGISTERS): each module must register exactly
+    those subcommands, and every module's commands must be known, or a command would vanish."""
+    import argparse
+    import importlib
+
+    from shoulder_bench import cli
+
+    assert set(cli.REGISTERS) == set(cli.COMMANDS)
+    for name in cli.COMMANDS:
+        sub = argparse.ArgumentParser().add_subparsers()
+        importlib.import_module(name).add_parser(sub)
+        assert tuple(sub.choices) == cli.REGISTERS[name], name
+    for command in ("tasks", "eval", "model"):
+        assert set(cli.build_parser(command)._subparsers._group_actions[0].choices) == {
+            c for m, cs in cli.REGISTERS.items() if command in cs for c in cs}

@@ -15,14 +15,25 @@ COMMANDS = ["shoulder_bench.cli.tasks", "shoulder_bench.cli.bench", "shoulder_be
             "shoulder_bench.cli.leaderboard", "shoulder_bench.cli.render", "shoulder_bench.cli.fem",
             "shoulder_bench.cli.validate", "shoulder_bench.cli.condition",
             "shoulder_bench.cli.surgery"]
+# the subcommands each module registers (tests/test_cli_errors.py checks this against add_parser): a command line
+# naming one of them imports only its module, so `tasks` or `eval` does not pay for torch, matplotlib or the
+# renderer's imports of the other commands
+REGISTERS = {"shoulder_bench.cli.tasks": ("tasks", "demo"), "shoulder_bench.cli.bench": ("bench",),
+             "shoulder_bench.cli.train": ("train", "eval"), "shoulder_bench.cli.reproduce": ("reproduce",),
+             "shoulder_bench.cli.sweep": ("sweep",), "shoulder_bench.cli.plots": ("plot",),
+             "shoulder_bench.cli.leaderboard": ("leaderboard",), "shoulder_bench.cli.render": ("render",),
+             "shoulder_bench.cli.fem": ("fem",), "shoulder_bench.cli.validate": ("model",),
+             "shoulder_bench.cli.condition": ("condition",), "shoulder_bench.cli.surgery": ("surgery",)}
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser of every command, or (`command` one of them) of that command alone: what `main` parses with."""
     parser = argparse.ArgumentParser(prog="shoulder-bench", description="Shoulder muscle-control benchmark.")
     parser.add_argument("--version", action="version",
                         version=f"%(prog)s {importlib.metadata.version('shoulder-bench')}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for name in COMMANDS:
+    only = [m for m in COMMANDS if command in REGISTERS.get(m, ())]
+    for name in only or COMMANDS:
         try:
             module = importlib.import_module(name)
         except ModuleNotFoundError as exc:
@@ -38,7 +49,8 @@ def _interrupt(signum, frame):
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = build_parser(argv[0] if argv else None).parse_args(argv)
     in_main = threading.current_thread() is threading.main_thread()  # signal handlers live in the main thread
     previous = signal.signal(signal.SIGTERM, _interrupt) if in_main else None
     try:
