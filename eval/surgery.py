@@ -119,7 +119,7 @@ def plan(tasks, conditions, algo=None, seeds=(0,), frames=None, finetune_frames=
          eval_every=None) -> list[dict]:
     """Every scenario (task x condition), checked before any work."""
     from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
-    from shoulder_bench.muscle import MUSCLE_MODELS
+    from shoulder_bench.muscle import check_muscle_model
     from shoulder_bench.tasks import check_name
     from shoulder_bench.train.plan import ALGOS, check_task, count
 
@@ -134,8 +134,7 @@ def plan(tasks, conditions, algo=None, seeds=(0,), frames=None, finetune_frames=
     if algo is not None and algo not in ALGOS:
         raise ValueError(f"unknown algorithm {algo!r}; choose from {', '.join(ALGOS)}")
     muscle_model = muscle_model or DEFAULT_MUSCLE_MODEL
-    if muscle_model not in MUSCLE_MODELS:
-        raise ValueError(f"unknown muscle model {muscle_model!r}; choose one of {', '.join(MUSCLE_MODELS)}")
+    check_muscle_model(muscle_model)
     fractions = dict(fractions or {})
     bad = [k for k in fractions if k not in FRACTION_OPTIONS]
     if bad:

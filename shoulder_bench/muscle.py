@@ -36,6 +36,15 @@ from shoulder_bench.paths import MODELS_DIR
 FV_MAX = 1.2
 VMAX_LOPT_PER_S = 10.0
 MUSCLE_MODELS = ("fem", "hill")
+
+
+def check_muscle_model(muscle_model: str) -> str:
+    """`muscle_model` if it is one of MUSCLE_MODELS, else a ValueError naming them."""
+    if muscle_model not in MUSCLE_MODELS:
+        raise ValueError(f"unknown muscle model {muscle_model!r}; choose one of {', '.join(MUSCLE_MODELS)}")
+    return muscle_model
+
+
 # Model v1's muscles (the shipped v1 tables, models/muscles) and their optimal fibre lengths (m; MoBL-ARMS SUPSP,
 # INFSP, DELT2, LAT2), the force-velocity scale; anatomy re-exports them.
 MUSCLES = ("ssp", "isp", "dmi", "ld")
@@ -180,8 +189,7 @@ class ForceLaw:
         there (v2's tendons). arms: the model's moment arms (m) on the tables' grid, a dict muscle -> (K,) or a
         callable angle_deg (K,) -> such a dict; default v1's MJCF (`geometry.moment_arms`). groups: as `ForceLaw`
         (then `muscles` are the tables to load, in actuator order)."""
-        if muscle_model not in MUSCLE_MODELS:
-            raise ValueError(f"unknown muscle_model {muscle_model!r}; choose one of {MUSCLE_MODELS}")
+        check_muscle_model(muscle_model)
         muscles = tuple(muscles)
         if folder is None:
             unknown = [m for m in muscles if m not in MUSCLES]

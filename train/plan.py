@@ -50,7 +50,7 @@ def plan(task: str, algo: str, frames: int | None = None, seed: int = 0, overrid
     The budget is rounded up to whole iterations (PPO: num_envs x steps_per_env frames; DQN/BDQ: num_envs)."""
     from shoulder_bench.arm import MODEL_VERSION
     from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
-    from shoulder_bench.muscle import MUSCLE_MODELS
+    from shoulder_bench.muscle import check_muscle_model
     from shoulder_bench.train.config import build
 
     if algo not in ALGOS:
@@ -59,8 +59,7 @@ def plan(task: str, algo: str, frames: int | None = None, seed: int = 0, overrid
     asked = count("--frames", DEFAULT_FRAMES[algo] if frames is None else frames)
     seed = count("--seed", seed, low=0)
     muscle_model = muscle_model or DEFAULT_MUSCLE_MODEL
-    if muscle_model not in MUSCLE_MODELS:
-        raise ValueError(f"unknown muscle model {muscle_model!r}; choose one of {', '.join(MUSCLE_MODELS)}")
+    check_muscle_model(muscle_model)
     from shoulder_bench.tasks import check_options
     from shoulder_bench.tasks.options import COMMAND_LINE
 
