@@ -112,15 +112,16 @@ def policy_for(spec: str, task: str | None = None, options: dict | None = None) 
 
 
 def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: str | None = None,
-             record: bool = False, options: dict | None = None) -> dict:
+             record: bool = False, options: dict | None = None, seed: int = 0) -> dict:
     """Roll out `policy` (float32 obs (B, 4 + n) -> actions) greedily on every trajectory; return the metrics.
 
     record=True adds "trace": angle_deg, target_deg (B, T) and activation (B, T, n) after each frame, NaN after a
-    trajectory's end or crash. options: further task options (alpha, init, ...), as the policy was trained with."""
+    trajectory's end or crash. options: further task options (alpha, init, ...), as the policy was trained with.
+    Trajectory k runs as a copy seeded seed + k: its draws (randomize, obs_noise_deg) are fixed by the seed."""
     import shoulder_bench
 
     options = dict(options or {}) | ({} if muscle_model is None else {"muscle_model": muscle_model})
-    venv = shoulder_bench.make_vec(task, len(trajectories), seed=0, trajectory=list(trajectories), **options)
+    venv = shoulder_bench.make_vec(task, len(trajectories), seed=seed, trajectory=list(trajectories), **options)
     n = len(trajectories)
     frames = venv.episode_frames.copy()
     err = np.full((n, int(frames.max())), np.nan)

@@ -123,10 +123,12 @@ def _variants(settings: list[dict]) -> list[str]:
 
 def _score(policy, task: str, muscle_model, test, combing, suites: dict, options: dict | None = None) -> dict:
     """One policy evaluated on the test set (recorded), combing and each suite; its columns (`board.columns`)."""
+    from shoulder_bench.eval.suites import options_for
+
     t = evaluate(policy, task, test, muscle_model=muscle_model, record=True, options=options)
     c = evaluate(policy, task, combing, muscle_model=muscle_model, options=options)
-    s = {spec: evaluate(policy, task, trajectories, muscle_model=muscle_model, options=options)
-         for spec, trajectories in suites.items()}
+    s = {spec: evaluate(policy, task, trajectories, muscle_model=muscle_model, options=options_for(spec, options))
+         for spec, trajectories in suites.items()}  # a suite's task options on top of the row's own
     return board.columns(t, c, s, test, task, muscle_model, options)
 
 
@@ -147,10 +149,13 @@ def collect(runs: Path | None, pretrained: bool = False, progress: bool = False,
     from tqdm import tqdm
 
     from shoulder_bench.eval.reference import ReferenceController
+    from shoulder_bench.eval.suites import options_for
     from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
 
     extra = load_suites(suites)
     entries = _entries(runs, pretrained)
+    for e, spec in ((e, spec) for e in entries for spec in extra):  # suite options that conflict: before any work
+        options_for(spec, e["setting"]["options"], who=f"{e['spec']} (its row's options)")
     test, combing = trajectories_for("test"), trajectories_for("combing")
     groups: dict[tuple[str, str], list[dict]] = defaultdict(list)
     settings: dict[tuple[str, str], dict] = {}
@@ -281,18 +286,20 @@ def write(rows: list[dict], out: Path) -> dict[str, Path]:
     import html
 
     from shoulder_bench.eval.plots import checked_dir, replace_all
+    from shoulder_bench.eval.suites import note as suite_note
 
     out = checked_dir(out, "--out")
     variant = any(r["variant"] for r in rows)
     titles = head(variant, rows[0]["suites"] if rows else ())
     table = [cells(r, variant) for r in rows]
     found = findings(rows)
+    notes_text = NOTES + suite_note(rows[0]["suites"] if rows else ())  # the task options of a suite that has any
     md = ("| " + " | ".join(titles) + " |\n|" + "---|" * len(titles) + "\n"
           + "".join("| " + " | ".join(line) + " |\n" for line in table)
-          + "\n" + NOTES + "\n" + ("\n**The paper's qualitative findings, measured:**\n\n" if found else "")
+          + "\n" + notes_text + "\n" + ("\n**The paper's qualitative findings, measured:**\n\n" if found else "")
           + "".join(f"- {f}\n" for f in found))
     body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in line) + "</tr>" for line in table)
-    notes = html.escape(NOTES).replace("**synthetic**", "<b>synthetic</b>")
+    notes = html.escape(notes_text).replace("**synthetic**", "<b>synthetic</b>")
     curves = _curves(rows)
     page = ("<!doctype html><meta charset='utf-8'><title>shoulder_bench leaderboard</title>"
             "<style>body{font-family:sans-serif;margin:2em}td,th{border:1px solid #ccc;padding:4px 8px}"

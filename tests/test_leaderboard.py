@@ -126,7 +126,7 @@ def test_an_unknown_suite_fails_before_evaluating(tmp_path, monkeypatch, capsys)
     monkeypatch.setattr(leaderboard, "evaluate", forbidden)
     assert main(["leaderboard", "--suite", "paper", "nosuch", "--out", str(tmp_path / "b")]) == 2
     err = capsys.readouterr().err
-    assert "--suite nosuch: not a suite name (paper, fast, wide, adl)" in err and not (tmp_path / "b").exists()
+    assert "--suite nosuch: not a suite name (paper, fast, wide, adl, robust)" in err and not (tmp_path / "b").exists()
 
 
 def test_a_row_is_everything_but_the_seed():

@@ -1,5 +1,6 @@
 """Named evaluation suites (issue 14 §2): the shipped files are what the generator makes, carry their recorded
-checksums, have the shape and ranges they claim, and `shoulder-bench eval --suite` runs them."""
+checksums, have the shape and ranges they claim, and `shoulder-bench eval --suite` runs them; `robust`'s task options
+apply, merge with a policy's own by the documented rule, and its evaluations are deterministic."""
 import hashlib
 import json
 
@@ -97,11 +98,11 @@ def test_eval_suite_runs_and_names_the_valid_ones(capsys):
     assert m["n_trajectories"] == 100 and m["crashes"] == 0 and m["mae_deg"] < 5
     assert main(["eval", "--policy", "reference", "--suite", "nope"]) == 2
     err = capsys.readouterr().err
-    assert "--suite nope: not a suite name (paper, fast, wide, adl)" in err
+    assert "--suite nope: not a suite name (paper, fast, wide, adl, robust)" in err
     assert main(["eval", "--policy", "reference", "--suite", "fast", "--trajectories", "test"]) == 2
     assert "give --suite or --trajectories, not both" in capsys.readouterr().err
-    with pytest.raises(ValueError, match="choose one of paper, fast, wide, adl"):
-        suites.generate("robust")
+    with pytest.raises(ValueError, match="choose one of paper, fast, wide, adl, robust"):
+        suites.generate("nope")
 
 
 def test_default_is_paper_and_trajectories_still_work(capsys):
@@ -129,3 +130,135 @@ def test_a_folder_is_a_hidden_suite(tmp_path, capsys):
     with pytest.raises(ValueError, match="holds no"):
         suites.load_suite(str(empty))
     assert load_csv(tmp_path / "a.csv")[0].frames == 200
+
+
+ROBUST = {"delay_frames": 1, "obs_noise_deg": 0.5, "randomize": {"strength": 0.2, "mass": 0.0, "load": (1.0, 1.0)}}
+
+
+def test_robust_is_the_paper_set_under_fixed_options():
+    assert suites.FILES["robust"] == "test_set.csv" and suites.SHA256["robust"] == suites.SHA256["paper"]
+    assert suites.OPTIONS == {"robust": ROBUST} and suites.suite_options("robust") == ROBUST
+    for a, b in zip(suites.load_suite("robust"), suites.load_suite("paper")):
+        np.testing.assert_array_equal(a.angle_deg, b.angle_deg)
+    assert suites.load_suite("robust")[7].name == "robust:7"
+    suites.suite_options("robust")["randomize"]["strength"] = 9  # a copy: the constant stays
+    assert suites.OPTIONS["robust"]["randomize"]["strength"] == 0.2
+    assert suites.suite_options("fast") == {} and suites.options_for("fast", {"delay_frames": 2}) == {"delay_frames": 2}
+
+
+def test_robust_draws_strength_within_20_percent_and_exactly_1_kg():
+    import shoulder_bench
+
+    venv = shoulder_bench.make_vec("abduction_4m", 20, seed=0, trajectory=suites.load_suite("robust")[:20],
+                                   **suites.options_for("robust", {}))
+    draws = [venv.draws(i) for i in range(20)]
+    assert venv.delay_frames == 1 and venv.obs_noise_deg == 0.5
+    venv.close()
+    strength = np.array([d["strength"] for d in draws])
+    assert strength.shape == (20, 4) and np.all(np.abs(strength - 1.0) <= 0.2)
+    assert np.abs(strength - 1.0).max() > 0.15 and len(np.unique(strength)) == strength.size  # spread over +-20 %
+    assert [d["mass_scale"] for d in draws] == [1.0] * 20 and [d["load_kg"] for d in draws] == [1.0] * 20
+
+
+def test_robust_options_merge_with_a_policys_own():
+    """The suite's options go on top; the policy's own at the suite's value or at the default agree; another value
+    is an error naming the option; options the suite leaves alone stay the policy's."""
+    merged = suites.options_for("robust", {"activation_dynamics": True, "delay_frames": 1})
+    assert merged == {"activation_dynamics": True} | ROBUST  # delay 1 trained, delay 1 evaluated (not 2)
+    assert suites.options_for("robust", {"delay_frames": 0, "obs_noise_deg": 0.0, "randomize": None}) == ROBUST
+    same = {"randomize": "strength=0.2,load=1:1", "obs_noise_deg": 0.5}  # the suite's values, written otherwise
+    assert suites.options_for("robust", same) == ROBUST
+    for key, value in (("delay_frames", 2), ("obs_noise_deg", 1.0), ("randomize", True),
+                       ("randomize", {"strength": 0.2, "mass": 0.0, "load": (0.0, 2.0)})):
+        with pytest.raises(ValueError, match=f"suite robust evaluates under {key}=.*but run X sets {key}="):
+            suites.options_for("robust", {key: value}, who="run X")
+
+
+def test_robust_evaluation_is_deterministic_and_seeded_per_trajectory():
+    from shoulder_bench.eval.evaluate import evaluate
+    from shoulder_bench.eval.reference import ReferenceController
+
+    trajs = suites.load_suite("robust")[:3]
+    policy = ReferenceController("abduction_4m")
+    opts = suites.options_for("robust", {})
+    a = evaluate(policy, "abduction_4m", trajs, options=opts)
+    b = evaluate(policy, "abduction_4m", trajs, options=opts)
+    assert a["per_trajectory"] == b["per_trajectory"] and a["mae_deg"] == b["mae_deg"]  # exactly
+    # trajectory k is seeded seed + k: the first two alone score as they do among three
+    two = evaluate(policy, "abduction_4m", trajs[:2], options=opts)
+    assert two["per_trajectory"]["mae_deg"] == a["per_trajectory"]["mae_deg"][:2]
+    other = evaluate(policy, "abduction_4m", trajs, options=opts, seed=1)
+    assert other["per_trajectory"]["mae_deg"] != a["per_trajectory"]["mae_deg"]  # the draws follow the seed
+    paper = evaluate(policy, "abduction_4m", trajs)
+    assert a["mae_deg"] > paper["mae_deg"] + 1.0  # the perturbations act (nominal-arm controller, 1 kg load)
+
+
+def _few(monkeypatch, n=2):
+    load = suites.load_suite
+    monkeypatch.setattr(suites, "load_suite", lambda spec: load(spec)[:n])  # tiny inputs
+
+
+def test_eval_suite_robust_records_its_options(monkeypatch, capsys):
+    _few(monkeypatch)
+    assert main(["eval", "--policy", "reference", "--suite", "robust", "--json"]) == 0
+    out = capsys.readouterr().out.strip().splitlines()
+    m = json.loads(out[-1])
+    assert m["suite"] == "robust" and m["n_trajectories"] == 2
+    assert m["suite_options"] == json.loads(json.dumps(ROBUST)) and m["options"] == m["suite_options"]
+    assert "(suite robust, delay_frames=1, obs_noise_deg=0.5, randomize=" in out[-2]
+    assert main(["eval", "--policy", "reference", "--suite", "robust", "--option", "activation_dynamics=True",
+                 "--json"]) == 0
+    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["options"]["activation_dynamics"] is True
+    assert main(["eval", "--policy", "reference", "--suite", "robust", "--option", "delay_frames=2"]) == 2
+    assert "suite robust evaluates under delay_frames=1" in capsys.readouterr().err
+
+
+def _run(root, seed, options):
+    """A finished run folder of a policy that never moves, trained (so its config says) with `options`."""
+    import torch
+
+    from shoulder_bench.train.policy import save_policy
+
+    class Still(torch.nn.Module):
+        def forward(self, obs: torch.Tensor) -> torch.Tensor:
+            return torch.zeros(obs.shape[0], obs.shape[1] - 4)
+
+    run = root / "abduction_ssp" / "ppo" / str(seed)
+    run.mkdir(parents=True)
+    meta = {"task": "abduction_ssp", "algo": "ppo", "seed": seed, "muscle_model": "fem", "options": options}
+    (run / "config.json").write_text(json.dumps(meta | {"frames": 1000}))
+    (run / "metrics.json").write_text(json.dumps({"mae_deg": 1.0, "wall_s": 2.0}))
+    save_policy(Still(), run / "policy.pt", meta)
+
+
+def test_leaderboard_suite_robust(tmp_path, monkeypatch, capsys):
+    import csv
+
+    from shoulder_bench.eval import leaderboard
+
+    _few(monkeypatch)
+    few = leaderboard.trajectories_for
+    monkeypatch.setattr(leaderboard, "trajectories_for", lambda spec: few(spec)[:2])
+    calls = []
+    real = leaderboard.evaluate
+    monkeypatch.setattr(leaderboard, "evaluate", lambda *a, **k: calls.append(k["options"]) or real(*a, **k))
+    runs, out = tmp_path / "runs", tmp_path / "board"
+    _run(runs, 0, {"delay_frames": 1})
+    assert main(["leaderboard", "--runs", str(runs), "--suite", "paper", "robust", "--out", str(out)]) == 0
+    assert {"delay_frames": 1} in calls and ROBUST in calls  # the run's own on paper; the suite's for the reference
+    assert sum(o == ROBUST for o in calls) == 3  # the run (delay 1 = the suite's) and the two reference rows
+    rows = list(csv.DictReader((out / "leaderboard.csv").open()))
+    scored = [r for r in rows if r["rank"]]
+    assert len(scored) == 3
+    for r in scored:
+        gap = float(r["suite_robust_mae_mean"]) - float(r["test_mae_mean"])
+        assert float(r["gap_robust_mean"]) == pytest.approx(gap)
+    md = (out / "leaderboard.md").read_text()
+    assert "| robust MAE (deg) | gap robust − paper (deg) |" in md and "Suite robust: the paper test set under " \
+        "delay_frames=1, obs_noise_deg=0.5, randomize=" in md
+    _run(runs, 1, {"delay_frames": 2})  # conflicts with the suite: refused before any evaluation
+    calls.clear()
+    assert main(["leaderboard", "--runs", str(runs), "--suite", "robust", "--out", str(tmp_path / "b")]) == 2
+    err = capsys.readouterr().err
+    assert "suite robust evaluates under delay_frames=1" in err and "sets delay_frames=2" in err
+    assert calls == [] and not (tmp_path / "b").exists()

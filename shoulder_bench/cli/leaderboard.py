@@ -12,8 +12,9 @@ def add_parser(sub) -> None:
     p.add_argument("--pretrained", action="store_true", help="add the shipped agents' rows next to the runs'")
     p.add_argument("--suite", nargs="+", default=["paper"], metavar="NAME",
                    help="evaluation suites: paper (the fixed test set, always scored and ranked on; the default), "
-                        "fast, wide, adl, or a folder of CSV files (a hidden suite); each beyond paper adds its MAE "
-                        "and its generalisation gap (suite MAE minus paper MAE)")
+                        "fast, wide, adl, robust (the paper set under delay, noise, strength and a 1 kg load, on "
+                        "top of each row's options), or a folder of CSV files (a hidden suite); each beyond paper "
+                        "adds its MAE and its generalisation gap (suite MAE minus paper MAE)")
     p.add_argument("--out", type=Path, default=Path("leaderboard"),
                    help="folder for leaderboard.md, .csv and .html (created; must not be a file)")
     p.set_defaults(func=_run)

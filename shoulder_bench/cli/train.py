@@ -35,8 +35,9 @@ def add_parser(sub) -> None:
     p.add_argument("--trajectories", default=None, help="test (the fixed 100), combing, or a CSV file")
     p.add_argument("--suite", default=None,
                    help="a named, checksummed suite: paper (the default, = --trajectories test), fast (2-3 s "
-                        "segments), wide (5-150 deg), adl (synthetic combing); or a folder of CSV files (a hidden "
-                        "suite: every *.csv, sorted)")
+                        "segments), wide (5-150 deg), adl (synthetic combing), robust (the paper set under "
+                        "delay_frames=1, obs_noise_deg=0.5, strength +-20 %%, a 1 kg hand load, on top of the "
+                        "policy's options); or a folder of CSV files (a hidden suite: every *.csv, sorted)")
     p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
                    help="a task option for this evaluation over the policy's own, e.g. delay_frames=1 or "
                         "obs_noise_deg=0.5 (repeatable; shoulder-bench tasks --options lists them)")
@@ -75,17 +76,21 @@ def _eval(args) -> int:
     from shoulder_bench.tasks.options import assignments
 
     extra = check_options(**assignments(args.option))  # bad options and files fail before the policy loads
-    from shoulder_bench.eval.suites import load_suite
+    from shoulder_bench.eval.suites import load_suite, options_for, suite_options
 
     if args.suite is not None and args.trajectories is not None:
         raise ValueError("give --suite or --trajectories, not both")
-    if args.trajectories is not None:
+    suite = None if args.trajectories is not None else args.suite or "paper"
+    if suite is None:
         trajs, label = trajectories_for(args.trajectories), args.trajectories
     else:
-        label = args.suite or "paper"
-        trajs, label = load_suite(label), f"suite {label}"
+        options_for(suite, extra, who="--option")  # a conflict with the suite's options fails before any work
+        trajs, label = load_suite(suite), f"suite {suite}"
     policy, meta, task = policy_for(args.policy, args.task, options=extra)
     options = dict(meta.get("options") or {}) | extra
+    if suite is not None:  # the suite's task options on top of the policy's own (eval.suites.options_for)
+        options = options_for(suite, options, who=f"policy {args.policy} (trained with it)")
+        extra = extra | suite_options(suite)  # shown with the result
     m = evaluate(policy, task, trajs, muscle_model=meta.get("muscle_model"), options=options)
     for i, (mae, rmse, crashed) in enumerate(zip(*m["per_trajectory"].values())):
         print(f"trajectory {i:3d}: MAE {mae:6.2f} deg  RMSE {rmse:6.2f} deg{'  CRASHED' if crashed else ''}")
@@ -95,6 +100,7 @@ def _eval(args) -> int:
           f"RMSE {m['rmse_deg']:.2f} deg, crashes {m['crashes']}; inference {m['latency_ms']:.3f} ms per step "
           f"(batch 1, CPU)")
     if args.json:
-        print(json.dumps({k: v for k, v in m.items() if k != "per_trajectory"} | {"task": task, "policy": args.policy,
-                                                                                  "options": options}))
+        print(json.dumps({k: v for k, v in m.items() if k != "per_trajectory"} | {
+            "task": task, "policy": args.policy, "options": options, "suite": suite,
+            "suite_options": suite_options(suite) if suite is not None else {}}))
     return 0
