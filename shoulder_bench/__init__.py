@@ -18,8 +18,15 @@ __all__ = ["MODEL_PATH", "SCENE_PATH", "list_tasks", "load", "make_vec"]
 _register_gym()
 
 
-def make_vec(name: str, num_envs: int, device: str = "cpu", seed=None, **options):
-    """N copies of a task in lockstep as an rsl-rl VecEnv (see shoulder_bench.tasks.vec_env)."""
+def make_vec(name: str, num_envs: int, device: str = "cpu", seed=None, backend: str = "mujoco", **options):
+    """N copies of a task in lockstep as an rsl-rl VecEnv: backend "mujoco" (shoulder_bench.tasks.vec_env, the
+    compiled callback) or "mjx" (shoulder_bench.tasks.mjx_env on the JAX device; needs the [mjx] extra; docs/gpu.md)."""
+    if backend == "mjx":
+        from shoulder_bench.tasks.mjx_env import make
+
+        return make(name, num_envs, device=device, seed=seed, **options)
+    if backend != "mujoco":
+        raise ValueError(f"backend must be 'mujoco' or 'mjx', got {backend!r}")
     from shoulder_bench.tasks.vec_env import VecEnv
 
     return VecEnv(name, num_envs, device=device, seed=seed, **options)

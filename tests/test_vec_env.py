@@ -105,3 +105,10 @@ def test_bench_quick(capsys):
 def test_bad_seed_or_count_is_a_clear_error(kw, message):
     with pytest.raises(ValueError, match=message):
         shoulder_bench.make_vec("abduction_4m", **{"num_envs": 2} | kw)
+
+
+def test_make_vec_names_its_backends():
+    import shoulder_bench
+
+    with pytest.raises(ValueError, match="backend must be 'mujoco' or 'mjx'"):
+        shoulder_bench.make_vec("abduction_4m", 2, backend="warp")

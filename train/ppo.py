@@ -126,7 +126,7 @@ def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval,
     fine-tune starts from (`plan.init_source`)."""
     env = ScaledActions(venv, cfg.reward_scale, cfg.error_features)
     with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints the networks; the config already records them
-        runner = OnPolicyRunner(env, rsl_config(cfg, venv.num_actions), log_dir=None, device="cpu")
+        runner = OnPolicyRunner(env, rsl_config(cfg, venv.num_actions), log_dir=None, device=str(venv.device))
     alg = runner.alg
     if run.checkpoint is not None:
         try:
