@@ -25,6 +25,7 @@ import dataclasses
 import json
 import math
 import os
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,6 +37,12 @@ from shoulder_bench.paths import MODELS_DIR
 FV_MAX = 1.2
 VMAX_LOPT_PER_S = 10.0
 MUSCLE_MODELS = ("fem", "hill")
+
+
+# np.load parses each .npy header with ast.literal_eval, which on CPython 3.11 is not safe from several threads at once
+# ("AST constructor recursion depth mismatch", seen once in tests/test_model.py's 8-thread test): tables are read
+# one at a time
+_NPZ_LOCK = threading.Lock()
 
 
 def check_muscle_model(muscle_model: str) -> str:
@@ -92,7 +99,7 @@ class MuscleTable:
         if not path.exists():
             raise FileNotFoundError(f"muscle table {path} is missing; {fix}")
         try:
-            with np.load(path, allow_pickle=False) as z:
+            with _NPZ_LOCK, np.load(path, allow_pickle=False) as z:
                 missing = [k for k in REQUIRED_KEYS if k not in z.files]
                 if missing:
                     raise ValueError(f"lacks {missing}")
