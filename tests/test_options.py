@@ -26,7 +26,7 @@ BAD = [
     ({"seed": True}, r"seed must be None or an integer .*; got True"),
     ({"seed": 1.5}, r"seed must be None or an integer .*; got 1.5"),
     ({"seed": -1}, r"seed must be None or an integer >= 0; got -1"),
-    ({"muscle_model": "fe"}, r"muscle_model 'fe'; choose one of \('fem', 'hill'\)"),
+    ({"muscle_model": "fe"}, r"unknown muscle model 'fe'; choose one of fem, hill"),
     ({"alpah": 0.1}, r"unknown option\(s\) \['alpah'\]. Did you mean 'alpha'\? Valid options: split, seed"),
 ]
 
