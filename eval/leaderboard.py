@@ -151,6 +151,7 @@ def collect(runs: Path | None, pretrained: bool = False, progress: bool = False,
     from shoulder_bench.eval.reference import ReferenceController
     from shoulder_bench.eval.suites import options_for
     from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
+    from shoulder_bench.tasks import check_options
 
     extra = load_suites(suites)
     entries = _entries(runs, pretrained)
@@ -167,12 +168,21 @@ def collect(runs: Path | None, pretrained: bool = False, progress: bool = False,
         groups[key].append(_score(e["policy"], s["task"], s["muscle_model"], test, combing, extra, s["options"])
                            | {"accuracy": board.accuracy_of(e["metrics"]), "wall_s": e["metrics"].get("wall_s"),
                               "history": board.history(Path(e["spec"]), e["metrics"]) if run else None})
-    for task in tqdm(("abduction_ssp", "abduction_4m"), desc="reference controller", disable=not progress):
-        s = {"task": task, "algo": "reference controller", "muscle_model": DEFAULT_MUSCLE_MODEL, "options": {},
+    # the reference controller under the default options and under every other option set a row was trained with,
+    # where its task takes them (a row under delay or randomisation is then ranked next to the controller under them)
+    option_sets = [{}] + [json.loads(o) for o in sorted({json.dumps(v["options"], sort_keys=True)
+                                                          for v in settings.values() if v["options"]})]
+    for task, options in tqdm([(t, o) for t in ("abduction_ssp", "abduction_4m") for o in option_sets],
+                              desc="reference controller", disable=not progress):
+        try:
+            check_options(task, **options)
+        except ValueError:  # e.g. a condition that removes the one muscle of abduction_ssp
+            continue
+        s = {"task": task, "algo": "reference controller", "muscle_model": DEFAULT_MUSCLE_MODEL, "options": options,
              "model_version": model_version()}
         key = ("model-based", json.dumps(s, sort_keys=True))
         settings[key] = s
-        groups[key].append(_score(ReferenceController(task), task, None, test, combing, extra)
+        groups[key].append(_score(ReferenceController(task), task, None, test, combing, extra, options or None)
                            | {"accuracy": {}, "wall_s": None, "history": None})
     keys = sorted(groups, key=lambda k: (settings[k]["task"], k[0] == "model-based", settings[k]["algo"], k))
     variants = dict(zip(keys, _variants([settings[k] for k in keys])))

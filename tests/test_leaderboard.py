@@ -175,3 +175,18 @@ def test_early_late_share_splits_at_45_degrees():
     assert (early, late) == (pytest.approx(1.0), pytest.approx(0.5))
     with pytest.raises(ValueError, match="not in this task"):
         early_late_share(angle, act[..., :1], ("ssp",))
+
+
+def test_the_reference_controller_is_ranked_under_each_rows_options(tmp_path, monkeypatch):
+    few = leaderboard.trajectories_for
+    monkeypatch.setattr(leaderboard, "trajectories_for", lambda spec: few(spec)[:2])  # tiny inputs
+    runs = tmp_path / "runs"
+    _still_run(runs, 0, options={"delay_frames": 1})
+    board = leaderboard.collect(runs)
+    ref = {(r["task"], json.dumps(r["options"], sort_keys=True)) for r in board
+           if r["algo"] == "reference controller"}
+    assert ref == {(t, o) for t in ("abduction_ssp", "abduction_4m") for o in ("{}", '{"delay_frames": 1}')}
+    run = next(r for r in board if r["source"].startswith("runs:"))
+    same = next(r for r in board if r["algo"] == "reference controller" and r["task"] == "abduction_ssp"
+                and r["options"] == {"delay_frames": 1})
+    assert run["options"] == {"delay_frames": 1} and same["test_mae"][0] > 0
