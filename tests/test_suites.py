@@ -246,10 +246,11 @@ def test_leaderboard_suite_robust(tmp_path, monkeypatch, capsys):
     _run(runs, 0, {"delay_frames": 1})
     assert main(["leaderboard", "--runs", str(runs), "--suite", "paper", "robust", "--out", str(out)]) == 0
     assert {"delay_frames": 1} in calls and ROBUST in calls  # the run's own on paper; the suite's for the reference
-    assert sum(o == ROBUST for o in calls) == 3  # the run (delay 1 = the suite's) and the two reference rows
+    # the run (delay 1 = the suite's) and four reference rows: both tasks, default options and the run's delay 1
+    assert sum(o == ROBUST for o in calls) == 5
     rows = list(csv.DictReader((out / "leaderboard.csv").open()))
     scored = [r for r in rows if r["rank"]]
-    assert len(scored) == 3
+    assert len(scored) == 5
     for r in scored:
         gap = float(r["suite_robust_mae_mean"]) - float(r["test_mae_mean"])
         assert float(r["gap_robust_mean"]) == pytest.approx(gap)
