@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from shoulder_bench.eval.surgery_checks import (  # noqa: F401 (feasibility*, folder_name: part of this API)
+from shoulder_bench.eval.surgery_checks import (
     FRACTION_OPTIONS,
     check_preop,
     condition_options,

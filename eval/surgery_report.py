@@ -31,7 +31,7 @@ SECTION_HEAD = ["task", "algorithm", "condition", "pre-op agent", "seeds", "pre-
 
 def name(r: dict) -> str:
     """A scenario's file stem: task_algo_condition."""
-    from shoulder_bench.eval.surgery import folder_name
+    from shoulder_bench.eval.surgery_checks import folder_name
 
     return f"{r['task']}_{r['algo']}_{folder_name(r['options'])}".replace("+", "-").replace(",", "_").replace("=", "")
 

@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from shoulder_bench.cli import main
-from shoulder_bench.eval import surgery
+from shoulder_bench.eval import surgery, surgery_checks
 from shoulder_bench.train.policy import pretrained_dir
 
 TINY = {"num_envs": 16, "steps_per_env": 8, "checkpoint_every": 1}  # 128 frames per PPO iteration
@@ -122,12 +122,12 @@ def test_a_missing_preop_run_or_a_mismatched_agent_is_an_error(tmp_path, capsys,
 
 
 def test_feasibility_names_what_the_post_op_muscles_cannot_hold():
-    intact = surgery.feasibility("abduction_4m", None, "fem")
-    tear = surgery.feasibility("abduction_4m", {"condition": "ssp_tear"}, "fem")
+    intact = surgery_checks.feasibility("abduction_4m", None, "fem")
+    tear = surgery_checks.feasibility("abduction_4m", {"condition": "ssp_tear"}, "fem")
     assert intact["holds_task_range"] and intact["not_held_deg"] == []
     assert tear["holds_task_range"] and tear["static_reach_deg"] == pytest.approx(11.6)
     assert tear["not_held_deg"][0][0] == pytest.approx(11.7) and tear["not_held_deg"][0][1] < 20
-    assert "below the range" in surgery.feasibility_text(tear)
+    assert "below the range" in surgery_checks.feasibility_text(tear)
 
 
 def test_recovery_is_the_first_evaluation_at_90_percent_of_the_pre_op_accuracy():
