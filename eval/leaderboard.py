@@ -291,12 +291,43 @@ def _curves(rows: list[dict]) -> str | None:
     return _png(sample_efficiency_figure(panels)) if panels else None
 
 
-def write(rows: list[dict], out: Path) -> dict[str, Path]:
-    """leaderboard.md, .csv and .html in `out`, all composed first and renamed into place together."""
+def load_surgery(folders) -> list[dict]:
+    """The summaries (summary.json) of `shoulder-bench surgery` output folders, for the board's "surgery" section;
+    a folder without one is a clear error, raised before any evaluation."""
+    summaries = []
+    for folder in folders or ():
+        path = Path(folder) / "summary.json"
+        if not path.is_file():
+            raise ValueError(f"--surgery {folder}: no summary.json there; give a folder written by "
+                             "`shoulder-bench surgery --out DIR`")
+        summary = _read_json(path)
+        if "scenarios" not in summary or "tables" not in summary:
+            raise ValueError(f"--surgery {path} is not a surgery summary (no scenarios/tables); give a folder "
+                             "written by `shoulder-bench surgery --out DIR`")
+        summaries.append(summary)
+    return summaries
+
+
+def _surgery_html(summary: dict) -> str:
+    import html
+
+    from shoulder_bench.eval.surgery_report import SECTION_HEAD, leaderboard_rows, section
+
+    intro = section(summary).split("\n")[2]  # the section's paragraph, as in the Markdown
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in SECTION_HEAD)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(row[h])}</td>" for h in SECTION_HEAD) + "</tr>"
+                   for row in leaderboard_rows(summary))
+    return f"<h2>Surgery</h2><p>{html.escape(intro)}</p><table><tr>{head}</tr>{body}</table>"
+
+
+def write(rows: list[dict], out: Path, surgery: list[dict] = ()) -> dict[str, Path]:
+    """leaderboard.md, .csv and .html in `out`, all composed first and renamed into place together; `surgery`:
+    summaries of `shoulder-bench surgery` runs (`load_surgery`), each shown as a "surgery" section."""
     import html
 
     from shoulder_bench.eval.plots import checked_dir, replace_all
     from shoulder_bench.eval.suites import note as suite_note
+    from shoulder_bench.eval.surgery_report import section
 
     out = checked_dir(out, "--out")
     variant = any(r["variant"] for r in rows)
@@ -307,7 +338,8 @@ def write(rows: list[dict], out: Path) -> dict[str, Path]:
     md = ("| " + " | ".join(titles) + " |\n|" + "---|" * len(titles) + "\n"
           + "".join("| " + " | ".join(line) + " |\n" for line in table)
           + "\n" + notes_text + "\n" + ("\n**The paper's qualitative findings, measured:**\n\n" if found else "")
-          + "".join(f"- {f}\n" for f in found))
+          + "".join(f"- {f}\n" for f in found)
+          + "".join("\n" + section(summary) for summary in surgery))
     body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in line) + "</tr>" for line in table)
     notes = html.escape(notes_text).replace("**synthetic**", "<b>synthetic</b>")
     curves = _curves(rows)
@@ -317,6 +349,7 @@ def write(rows: list[dict], out: Path) -> dict[str, Path]:
             f"<table><tr>{''.join(f'<th>{html.escape(h)}</th>' for h in titles)}</tr>{body}</table><p>{notes}</p>"
             + (f"<h2>The paper's qualitative findings, measured</h2><ul>"
                f"{''.join(f'<li>{html.escape(x)}</li>' for x in found)}</ul>" if found else "")
+            + "".join(_surgery_html(summary) for summary in surgery)
             + "<h2>Sample efficiency</h2>"
             + (f"<p><img alt='sample-efficiency curves: test MAE against frames, 95 % bands over seeds' "
                f"src='data:image/png;base64,{curves}'></p><p>Test-set MAE at each evaluation during training "

@@ -67,8 +67,8 @@ class _Controller:
     muscle_model: str | None = None
 
 
-def _controller(policy: str | None, task: str | None) -> tuple[_Controller, str]:
-    """The controller for `policy` and the task it runs on."""
+def _controller(policy: str | None, task: str | None, condition: str | None = None) -> tuple[_Controller, str]:
+    """The controller for `policy` and the task it runs on (the reference controller plans with `condition`)."""
     import torch
 
     from shoulder_bench import protocol
@@ -95,7 +95,7 @@ def _controller(policy: str | None, task: str | None) -> tuple[_Controller, str]
         return _Controller("feedback (PD)", act), task
     from shoulder_bench.eval.evaluate import policy_for
 
-    module, meta, task = policy_for(policy, task)
+    module, meta, task = policy_for(policy, task, options={"condition": condition} if condition else None)
     if policy == "reference":
         label = "reference controller"
     else:
@@ -222,9 +222,11 @@ class _GifWriter:
 def render_video(out: Path | str, task: str | None = None, policy: str | None = None, trajectory=None,
                  seconds: float | None = None, width: int = 640, height: int = 480, gif: bool = False,
                  fps: int | None = None, camera: str = "front", seed: int = 0, progress: bool = False,
-                 multisample: bool = False) -> dict:
+                 multisample: bool = False, condition: str | None = None) -> dict:
     """Render one episode to `out` (mp4, or GIF with gif=True); returns what was written and how fast.
     multisample: MuJoCo's 4x offscreen multisampling (smoother edges, about half the frame rate on CPU).
+    condition: a shoulder condition (`shoulder_bench.conditions`): the episode runs post-op, the video shows its
+    geometry (ld_transfer: the rerouted latissimus) and its removed muscles in grey.
 
     policy: None (PD feedback), "reference", a policy file/run folder or "pretrained:NAME"; trajectory: a CSV path
     (its first trajectory) or a `Trajectory`; default a random test-split target drawn with `seed`.
@@ -250,6 +252,9 @@ def render_video(out: Path | str, task: str | None = None, policy: str | None = 
         raise ValueError(f"seconds {seconds}: give a positive length in seconds")
     if task is not None:
         task = _check_task(task)
+    from shoulder_bench import conditions
+
+    geometry = conditions.geometry(condition)  # an unknown or clashing condition fails here, before any work
     target = None
     if trajectory is not None:
         if isinstance(trajectory, traj_mod.Trajectory):
@@ -261,9 +266,11 @@ def render_video(out: Path | str, task: str | None = None, policy: str | None = 
                                                          f"--trajectory out for a random test target")
             target = traj_mod.load_csv(path)[0]
 
-    ctrl, task = _controller(policy, task)
+    ctrl, task = _controller(policy, task, condition)
     muscles = TASKS[task][0]
+    removed = {m for m, f in conditions.factors(condition, muscles).items() if f == 0.0}
     options = {} if ctrl.muscle_model is None else {"muscle_model": ctrl.muscle_model}
+    options |= {"condition": condition} if condition else {}
     env = shoulder_bench.load(task, split="test", seed=seed, trajectory=target, **options)
     ts = env.reset()
     target = env.task.target
@@ -279,11 +286,12 @@ def render_video(out: Path | str, task: str | None = None, policy: str | None = 
 
     from shoulder_bench import arm
 
-    model = build_render_model(width, height, multisample)
+    model = build_render_model(width, height, multisample, geometry)
     data = mujoco.MjData(model)
     poser = Poser(model)
-    # each muscle's tendons (ld: ld1-ld3) and, per tendon, which of the task's activations colours it
-    tendons = [(model.tendon(t).id, k) for k, m in enumerate(muscles) for t in arm.ACTUATORS[m]]
+    # each muscle's tendons (ld: ld1-ld3) and, per tendon, which of the task's activations colours it; a muscle the
+    # condition removed stays grey (IDLE), as one the task does not simulate
+    tendons = [(model.tendon(t).id, k) for k, m in enumerate(muscles) if m not in removed for t in arm.ACTUATORS[m]]
     ten_ids, ten_src = [t for t, _ in tendons], [k for _, k in tendons]
     model.tendon_rgba[:] = IDLE
 
@@ -310,7 +318,8 @@ def render_video(out: Path | str, task: str | None = None, policy: str | None = 
     t_sim = time.perf_counter() - t0
     scale = _colour_scale(max((float(a.max()) for a in acts), default=0.0))
 
-    overlay = _Overlay(width, height, f"{task} · {ctrl.label}", muscles, scale)
+    title = f"{task} · {condition} · {ctrl.label}" if condition else f"{task} · {ctrl.label}"
+    overlay = _Overlay(width, height, title, muscles, scale)
     tmp = out.with_name(f".{out.stem}.tmp{os.getpid()}{out.suffix}")
     bar = None
     if progress:

@@ -16,15 +16,16 @@ GHOST = "ghost"  # the ghost's mocap body
 MULTISAMPLES = 4  # `multisample=True`: MuJoCo's default offscreen multisampling (smoother edges, about half the speed)
 
 
-def build_render_model(width: int, height: int, multisample: bool = False):
-    """The task model (`arm.MODEL_FILE`, scene included) without actuators, plus a translucent ghost humerus: a mocap
+def build_render_model(width: int, height: int, multisample: bool = False, geometry: str | None = None):
+    """The task model of `geometry` (`arm.model_file`: None the intact `arm.MODEL_FILE`, "ld_transfer" the rerouted
+    latissimus; scene included) without actuators, plus a translucent ghost humerus: a mocap
     body `GHOST` with a copy of the humerus's geoms, `GHOST_SCALE` larger (`Poser` places it). No offscreen
     multisampling unless `multisample` (MULTISAMPLES samples): software rendering pays for every sample."""
     import mujoco
 
     from shoulder_bench import arm
 
-    spec = mujoco.MjSpec.from_file(str(arm.MODEL_FILE))
+    spec = mujoco.MjSpec.from_file(str(arm.model_file(geometry)))
     for act in list(spec.actuators):  # visual only: no user actuators, so the muscle callback never runs
         spec.delete(act)
     spec.visual.global_.offwidth = max(width, spec.visual.global_.offwidth)

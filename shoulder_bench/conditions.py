@@ -20,7 +20,11 @@ import numbers
 from dataclasses import dataclass, field
 
 FRACTIONS = {"tear_fraction": 0.5, "weakness_fraction": 0.5}  # the fraction options and their defaults
-NOT_YET: dict[str, str] = {}  # conditions named but not built (name -> why), refused with that reason
+NOT_YET: dict[str, str] = {  # conditions named but not built (name -> why), refused with that reason
+    "lower_trapezius_transfer": "not available: no model here has a trapezius (MoBL-ARMS, which the anatomy comes "
+                                "from, models the glenohumeral muscles only; the scapula follows the humerus by its "
+                                "rhythm), so there is no lower trapezius to transfer; see docs/surgery.md",
+}
 
 
 @dataclass(frozen=True)

@@ -136,6 +136,17 @@ def test_leaderboard_bad_runs_fail_before_evaluating(tmp_path, capsys, no_work):
     assert not out.exists()
 
 
+def test_leaderboard_surgery_folder_without_a_summary_fails_before_evaluating(tmp_path, capsys, no_work):
+    out, none = tmp_path / "board", tmp_path / "surgery"
+    none.mkdir()
+    assert _error(capsys, ["leaderboard", "--surgery", str(none), "--out", str(out)]) == (
+        f"--surgery {none}: no summary.json there; give a folder written by `shoulder-bench surgery --out DIR`")
+    (none / "summary.json").write_text("{}")
+    assert _error(capsys, ["leaderboard", "--surgery", str(none), "--out", str(out)]).startswith(
+        f"--surgery {none / 'summary.json'} is not a surgery summary")
+    assert not out.exists()
+
+
 def test_plot_curves_on_bad_run_folders(tmp_path, capsys, no_work):
     out = tmp_path / "curves.png"
     good = _run(tmp_path / "a")

@@ -95,6 +95,7 @@ def test_the_preop_model_is_unchanged_by_loading_a_condition():
     ({"condition": "rotator_cuff"}, "unknown condition 'rotator_cuff'; valid conditions: ssp_tear, ssp_partial_tear"),
     ({"condition": "posterosuperior_tear+nope"}, "unknown condition 'nope'"),
     ({"condition": "ld_transfer+ld_transfer"}, "names a condition twice"),
+    ({"condition": "lower_trapezius_transfer"}, "no model here has a trapezius"),
     ({"condition": 3}, "condition must be None or a name"),
     ({"condition": "ssp_partial_tear", "tear_fraction": 1.0}, r"tear_fraction must be a number in \(0, 1\)"),
     ({"condition": "ssp_partial_tear", "tear_fraction": 0}, r"tear_fraction must be a number in \(0, 1\)"),
@@ -156,13 +157,21 @@ def test_reference_plans_with_the_conditioned_law(capsys):
                  "--json"]) == 0
     last = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert last["options"] == {"condition": "ssp_tear"} and last["crashes"] == 0
+    # --condition NAME is --option condition=NAME; both at once must agree
+    assert main(["eval", "--policy", "reference", "--trajectories", "combing", "--condition", "ssp_tear",
+                 "--json"]) == 0
+    again = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert again["options"] == last["options"] and again["mae_deg"] == pytest.approx(last["mae_deg"], rel=1e-9)
+    assert main(["eval", "--policy", "reference", "--condition", "ssp_tear", "--option", "condition=ld_transfer"]) == 2
+    assert "give the condition once" in capsys.readouterr().err
 
 
 def test_a_run_refuses_a_condition_its_task_cannot_have(tmp_path, capsys):
     out = tmp_path / "run"
-    assert main(["train", "--task", "abduction_ssp", "--algo", "ppo", "--frames", "1", "--out", str(out),
-                 "--option", "condition=ssp_tear"]) == 2
-    assert "which the task needs" in capsys.readouterr().err and not out.exists()
+    for flag in (["--option", "condition=ssp_tear"], ["--condition", "ssp_tear"]):
+        assert main(["train", "--task", "abduction_ssp", "--algo", "ppo", "--frames", "1", "--out", str(out),
+                     *flag]) == 2
+        assert "which the task needs" in capsys.readouterr().err and not out.exists()
 
 
 def test_condition_report_runs(capsys):

@@ -153,3 +153,39 @@ def test_muscles_coloured_by_their_activation_ld_bundles_by_ld(tmp_path, monkeyp
 def test_multisampling_is_off_by_default_and_an_option():
     assert render_model.build_render_model(W, H).vis.quality.offsamples == 0
     assert render_model.build_render_model(W, H, multisample=True).vis.quality.offsamples == render_model.MULTISAMPLES
+
+
+def test_a_condition_renders_its_geometry_and_greys_its_removed_muscles(tmp_path, monkeypatch):
+    import mujoco
+
+    from shoulder_bench import arm
+
+    seen = []
+    update = mujoco.Renderer.update_scene
+
+    def spy(self, data, *a, **k):
+        m = data.model
+        seen.append({"rgba": {m.tendon(t).name: m.tendon_rgba[t].copy() for t in range(m.ntendon)}})
+        return update(self, data, *a, **k)
+
+    monkeypatch.setattr(mujoco.Renderer, "update_scene", spy)
+    info = render_video(tmp_path / "x.mp4", seconds=0.2, width=W, height=H, fps=10,
+                        condition="posterosuperior_tear+ld_transfer")
+    assert info["frames"] == 2
+    rgba = seen[-1]["rgba"]
+    idle = sorted(t for t, c in rgba.items() if np.allclose(c, render_model.IDLE, atol=1e-6))
+    assert idle == ["isp", "ssp"]  # removed: grey; dmi and ld still coloured by their activations
+    # the rerouted latissimus: the ld_transfer model's path, not the intact one
+    rerouted = mujoco.MjModel.from_xml_path(str(arm.model_file("ld_transfer")))
+    intact = mujoco.MjModel.from_xml_path(str(arm.MODEL_FILE))
+
+    def path(m):
+        t = m.tendon("ld1").id
+        return [int(i) for i in m.wrap_objid[m.tendon_adr[t]:m.tendon_adr[t] + m.tendon_num[t]]]
+
+    assert path(rerouted) != path(intact)
+    model = render_model.build_render_model(W, H, geometry="ld_transfer")
+    assert path(model) == path(rerouted)
+    with pytest.raises(ValueError, match="unknown condition 'nope'"):
+        render_video(tmp_path / "y.mp4", condition="nope")
+    assert not (tmp_path / "y.mp4").exists()

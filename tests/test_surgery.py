@@ -21,7 +21,7 @@ def _config(tmp_path):
     return p
 
 
-def test_surgery_runs_end_to_end_on_a_tiny_budget(tmp_path):
+def test_surgery_runs_end_to_end_on_a_tiny_budget(tmp_path, monkeypatch):
     out = tmp_path / "surgery"
     assert main(["surgery", "--task", "abduction_4m", "--condition", "ssp_tear", "--pretrained", "--seeds", "0",
                  "--finetune-frames", "128", "--scratch-frames", "128", "--eval-every", "128", "--config",
@@ -59,6 +59,18 @@ def test_surgery_runs_end_to_end_on_a_tiny_budget(tmp_path):
     for fig in ("tracking", "activations", "recovery"):
         path = out / "figures" / f"abduction_4m_ppo_ssp_tear_{fig}.png"
         assert path.stat().st_size > 10_000 and f"figures/{path.name}" in report
+    # the leaderboard shows the scenario in its "surgery" section (md and html), next to a run's row
+    from test_leaderboard import _still_run
+
+    from shoulder_bench.eval import leaderboard
+    few = leaderboard.trajectories_for
+    monkeypatch.setattr(leaderboard, "trajectories_for", lambda spec: few(spec)[:2])  # tiny inputs
+    _still_run(tmp_path / "runs", 0)
+    board = tmp_path / "board"
+    assert main(["leaderboard", "--runs", str(tmp_path / "runs"), "--surgery", str(out), "--out", str(board)]) == 0
+    assert "\n" + section in (board / "leaderboard.md").read_text()
+    page = (board / "leaderboard.html").read_text()
+    assert "<h2>Surgery</h2>" in page and "<td>ssp_tear</td>" in page
 
 
 @pytest.fixture

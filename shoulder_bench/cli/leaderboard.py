@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from shoulder_bench.eval.leaderboard import collect, load_suites, write
+from shoulder_bench.eval.leaderboard import collect, load_suites, load_surgery, write
 
 
 def add_parser(sub) -> None:
@@ -15,6 +15,9 @@ def add_parser(sub) -> None:
                         "fast, wide, adl, robust (the paper set under delay, noise, strength and a 1 kg load, on "
                         "top of each row's options), or a folder of CSV files (a hidden suite); each beyond paper "
                         "adds its MAE and its generalisation gap (suite MAE minus paper MAE)")
+    p.add_argument("--surgery", nargs="+", type=Path, default=[], metavar="DIR",
+                   help="add a 'surgery' section from each `shoulder-bench surgery --out DIR` folder (its "
+                        "summary.json: pre-op, zero-shot, fine-tuned and from-scratch MAE per scenario)")
     p.add_argument("--out", type=Path, default=Path("leaderboard"),
                    help="folder for leaderboard.md, .csv and .html (created; must not be a file)")
     p.set_defaults(func=_run)
@@ -25,7 +28,8 @@ def _run(args) -> int:
 
     checked_dir(args.out, "--out")  # before the minutes of evaluation
     load_suites(args.suite)  # every suite named and checksummed before any evaluation
-    paths = write(collect(args.runs, args.pretrained, progress=True, suites=args.suite), args.out)
+    surgery = load_surgery(args.surgery)
+    paths = write(collect(args.runs, args.pretrained, progress=True, suites=args.suite), args.out, surgery)
     print(paths["md"].read_text())
     print("\n".join(str(p) for p in paths.values()))
     return 0

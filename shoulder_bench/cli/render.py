@@ -27,6 +27,10 @@ def add_parser(sub) -> None:
     p.add_argument("--gif", action="store_true", help="write an animated GIF instead of an mp4")
     p.add_argument("--camera", choices=CAMERAS, default="front")
     p.add_argument("--seed", type=int, default=0, help="seed of the random target")
+    p.add_argument("--condition", default=None, metavar="NAME",
+                   help="a shoulder condition (ssp_tear, ld_transfer, ...; compose with '+'): the episode runs "
+                        "post-op; the video shows its geometry (ld_transfer: the rerouted latissimus) and its "
+                        "removed muscles in grey")
     p.add_argument("--multisample", action="store_true",
                    help="4x multisampling: smoother edges, about half the frame rate on a CPU (default off)")
     p.set_defaults(func=_render_cmd)
@@ -36,7 +40,7 @@ def _render_cmd(args) -> int:
     info = render_video(args.out, task=args.task, policy=args.policy, trajectory=args.trajectory,
                         seconds=args.seconds, width=args.width, height=args.height, gif=args.gif, fps=args.fps,
                         camera=args.camera, seed=args.seed, progress=True,
-                        multisample=args.multisample)
+                        multisample=args.multisample, condition=args.condition)
     print(f"wrote {info['path']}: {info['frames']} frames, {info['width']}x{info['height']} at {info['fps']} fps "
           f"({info['seconds']:.1f} s of {info['task']} with {info['controller']}; MAE {info['mae_deg']:.2f} deg"
           f"{', CRASHED' if info['crashed'] else ''}); {info['render_fps']:.0f} frames rendered per wall second")

@@ -27,6 +27,9 @@ def add_parser(sub) -> None:
     p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
                    help="a task option the run trains and is evaluated with, e.g. delay_frames=1 (repeatable; part "
                         "of the run's identity; shoulder-bench tasks --options lists them)")
+    p.add_argument("--condition", default=None, metavar="NAME",
+                   help="a shoulder condition (ssp_tear, ld_transfer, ...; compose with '+'), the same as --option "
+                        "condition=NAME; shoulder-bench condition report lists them")
     p.set_defaults(func=_train)
     p = sub.add_parser("eval", help="evaluate a policy on the test set or a trajectory CSV")
     p.add_argument("--policy", required=True,
@@ -41,15 +44,30 @@ def add_parser(sub) -> None:
     p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
                    help="a task option for this evaluation over the policy's own, e.g. delay_frames=1 or "
                         "obs_noise_deg=0.5 (repeatable; shoulder-bench tasks --options lists them)")
+    p.add_argument("--condition", default=None, metavar="NAME",
+                   help="a shoulder condition (ssp_tear, ld_transfer, ...; compose with '+'), the same as --option "
+                        "condition=NAME; shoulder-bench condition report lists them")
     p.add_argument("--json", action="store_true", help="one JSON object on the last line")
     p.set_defaults(func=_eval)
 
 
-def _train(args) -> int:
-    from shoulder_bench.eval import experiment
+def options_of(args) -> dict:
+    """The task options of `--option KEY=VALUE ...` and `--condition NAME` (names checked here, values by the task)."""
     from shoulder_bench.tasks.options import assignments
 
-    options = assignments(args.option)  # names here, values in plan(), both before any work
+    options = assignments(args.option)
+    if args.condition is not None:
+        if options.get("condition", args.condition) != args.condition:
+            raise ValueError(f"--condition {args.condition} and --option condition={options['condition']}: give the "
+                             "condition once")
+        options["condition"] = args.condition
+    return options
+
+
+def _train(args) -> int:
+    from shoulder_bench.eval import experiment
+
+    options = options_of(args)  # names here, values in plan(), both before any work
     try:
         m = experiment.train(args.task, args.algo, args.frames, args.seed, args.out, args.resume, args.config,
                              args.muscle_model, args.eval_every, options=options)
@@ -73,9 +91,8 @@ def _train(args) -> int:
 def _eval(args) -> int:
     from shoulder_bench.eval.evaluate import evaluate, inference_latency_ms, policy_for, trajectories_for
     from shoulder_bench.tasks import TASKS, check_options
-    from shoulder_bench.tasks.options import assignments
 
-    extra = check_options(**assignments(args.option))  # bad options and files fail before the policy loads
+    extra = check_options(**options_of(args))  # bad options and files fail before the policy loads
     from shoulder_bench.eval.suites import load_suite, options_for, suite_options
 
     if args.suite is not None and args.trajectories is not None:
