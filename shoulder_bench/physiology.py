@@ -25,9 +25,9 @@ active M_A, resting M_R, fatigued M_F (sum 1) with the target load TL = the acti
     dM_A/dt = C - F M_A,   dM_R/dt = -C + R' M_F,   dM_F/dt = F M_A - R' M_F,
     C = LD (TL - M_A) if M_A < TL and M_R > TL - M_A;  LD M_R if M_A < TL and M_R <= TL - M_A;  LR (TL - M_A) else,
     R' = r R while the muscle rests (TL = 0), R otherwise.
-LD = LR = 10 s^-1 (Xia & Frey-Law 2008). Defaults F = 0.00912 s^-1, R = 0.00094 s^-1 (issue 14's values for the
-shoulder; the joint-specific fits are Frey-Law, Looft & Heitsman 2012, J Biomech 45:1803, whose table could not be
-checked here: set F and R with `fatigue={"F": ..., "R": ...}`) and r = 15 (Looft & Frey-Law 2020, J Biomech
+LD = LR = 10 s^-1 (Xia & Frey-Law 2008). Defaults F = 0.0182 s^-1, R = 0.00168 s^-1: the shoulder's fit of
+Frey-Law, Looft & Heitsman 2012 (J Biomech 45:1803), read from its abstract (docs/physiology.md says how; set F and R
+with `fatigue={"F": ..., "R": ...}`) and r = 15 (Looft & Frey-Law 2020, J Biomech
 106:109762: r = 15 predicted shoulder-flexion fatigue better than r = 30 or 3CC without r). The muscle can deliver at
 most its residual capacity M_A + M_R = 1 - M_F (the model's predicted strength), so the activation that acts is
 min(a, 1 - M_F). (M_A itself would also cap it, but LD = 10 s^-1 makes M_A trail every rise by 0.1 s: a second
@@ -47,7 +47,7 @@ from scipy.special import lambertw
 TAU_ACT = 0.015  # s, Thelen 2003 / OpenSim Thelen2003Muscle activation_time_constant
 TAU_DEACT = 0.050  # s, deactivation_time_constant
 FATIGUE_SUBSTEPS = 10  # explicit Euler sub-steps of the 3CC-r model per physics step
-FATIGUE_DEFAULTS = {"F": 0.00912, "R": 0.00094, "r": 15.0, "LD": 10.0, "LR": 10.0}  # s^-1 (r: a multiplier)
+FATIGUE_DEFAULTS = {"F": 0.0182, "R": 0.00168, "r": 15.0, "LD": 10.0, "LR": 10.0}  # s^-1 (r: a multiplier)
 
 
 @dataclass(frozen=True)
