@@ -47,16 +47,26 @@ def quintic(t: np.ndarray, start: float, end: float, duration: float) -> tuple[n
 
 def random_trajectory(rng: np.random.Generator, split: str = "train") -> Trajectory:
     """Stacked random quintic segments for `split` ("train" or "test"), drawn from `rng`."""
+    angle, velocity = random_targets([rng], split)
+    return Trajectory(angle[0], velocity[0], name=split)
+
+
+def random_targets(rngs, split: str = "train") -> tuple[np.ndarray, np.ndarray]:
+    """(angle_deg, velocity_deg_s), each (len(rngs), frames + 1): one random trajectory of `split` per generator,
+    drawn from it exactly as `random_trajectory(rng, split)` draws it, computed for all at once (the batched env's
+    resets). Velocity is the central difference of the samples, as `from_array`'s."""
     if split not in SPLITS:
         raise ValueError(f"unknown split {split!r}; choose one of {sorted(SPLITS)}")
     spec = SPLITS[split]
     lo, hi = spec["range_deg"]
     n_seg = int(round(spec["duration_s"] / SEGMENT_S))
-    points = rng.uniform(lo, hi, size=n_seg + 1)
+    points = np.array([rng.uniform(lo, hi, size=n_seg + 1) for rng in rngs]).reshape(len(rngs), n_seg + 1)
     per_seg = int(round(SEGMENT_S / FRAME_S))
-    t = np.arange(per_seg) * FRAME_S
-    pos = [quintic(t, points[k], points[k + 1], SEGMENT_S)[0] for k in range(n_seg)] + [[points[-1]]]
-    return from_array(np.concatenate(pos), name=split)
+    s = np.clip(np.arange(per_seg) * FRAME_S / SEGMENT_S, 0.0, 1.0)
+    shape = 10 * s**3 - 15 * s**4 + 6 * s**5  # quintic()'s rest-to-rest profile
+    start, end = points[:, :-1, None], points[:, 1:, None]
+    angle = np.concatenate([(start + (end - start) * shape).reshape(len(rngs), -1), points[:, -1:]], axis=1)
+    return angle, np.gradient(angle, FRAME_S, axis=1)
 
 
 def from_array(angle_deg, name: str = "array") -> Trajectory:

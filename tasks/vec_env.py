@@ -74,6 +74,13 @@ class VecEnv(_RslVecEnv):
         n_frames = self.max_episode_length
         self.targets = np.zeros((self.num_envs, n_frames + 1))
         self.target_vel = np.zeros_like(self.targets)
+        self.random_target = np.array([t is None for t in self.fixed])  # copies that draw a target per episode
+        self.fixed_targets, self.fixed_target_vel = np.zeros_like(self.targets), np.zeros_like(self.targets)
+        for i, tr in enumerate(self.fixed):  # a given target, padded with its last angle and zero velocity
+            if tr is not None:
+                self.fixed_targets[i, :len(tr.angle_deg)] = tr.angle_deg
+                self.fixed_targets[i, len(tr.angle_deg):] = tr.angle_deg[-1]
+                self.fixed_target_vel[i, :len(tr.angle_deg)] = tr.velocity_deg_s
         self.frames = np.zeros(self.num_envs, dtype=np.int64)
         self.qpos, self.qvel = np.zeros((self.num_envs, self.sim.nq)), np.zeros((self.num_envs, self.sim.nv))
         self.act = np.zeros((self.num_envs, self.n))
@@ -114,13 +121,18 @@ class VecEnv(_RslVecEnv):
 
     # --- episodes ---------------------------------------------------------------------------------------------------
     def _reset(self, idx: np.ndarray) -> None:
-        for i in idx:
-            tr = self.fixed[i] if self.fixed[i] is not None else targets.random_trajectory(self.rngs[i],
-                                                                                          self.task.split)
-            self.targets[i, :len(tr.angle_deg)] = tr.angle_deg
-            self.targets[i, len(tr.angle_deg):] = tr.angle_deg[-1]
-            self.target_vel[i, :len(tr.angle_deg)] = tr.velocity_deg_s
-            self.target_vel[i, len(tr.angle_deg):] = 0.0
+        """Start new episodes in the copies `idx`: targets, arm at rest on the first target, holding activations,
+        the physiology state, in arrays; per copy only what its own generators draw (its target's end points, its
+        randomised arm, its noise), so that copy i is the single env seeded seed + i."""
+        idx = np.asarray(idx, dtype=np.int64)
+        drawn = idx[self.random_target[idx]]
+        if drawn.size:  # all random targets of the split have the same length
+            angle, velocity = targets.random_targets([self.rngs[i] for i in drawn], self.task.split)
+            k = angle.shape[1]
+            self.targets[drawn, :k], self.targets[drawn, k:] = angle, angle[:, -1:]
+            self.target_vel[drawn, :k], self.target_vel[drawn, k:] = velocity, 0.0
+        given = idx[~self.random_target[idx]]  # fixed targets: their arrays, set once in __init__
+        self.targets[given], self.target_vel[given] = self.fixed_targets[given], self.fixed_target_vel[given]
         start = self.targets[idx, 0]
         self.qpos[idx] = self.arm.qpos(np.radians(start))
         self.qvel[idx] = 0.0

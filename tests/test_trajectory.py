@@ -27,6 +27,23 @@ def test_quintic_boundary_conditions():
     assert abs(acc[0]) < 1e-3
 
 
+@pytest.mark.parametrize("split", ["train", "test"])
+def test_random_targets_in_arrays_are_each_generators_quintic_segments(split):
+    """The batched env's resets: one row per generator, each the segments `quintic` gives for the end points that
+    generator draws (uniform in the split's range), with from_array's central-difference velocity."""
+    angle, velocity = T.random_targets([np.random.default_rng(s) for s in range(4)], split)
+    spec = T.SPLITS[split]
+    n_seg = int(round(spec["duration_s"] / T.SEGMENT_S))
+    t = np.arange(int(round(T.SEGMENT_S / T.FRAME_S))) * T.FRAME_S
+    for s in range(4):
+        points = np.random.default_rng(s).uniform(*spec["range_deg"], size=n_seg + 1)
+        expected = T.from_array(np.concatenate([T.quintic(t, points[k], points[k + 1], T.SEGMENT_S)[0]
+                                                for k in range(n_seg)] + [points[-1:]]))
+        np.testing.assert_allclose(angle[s], expected.angle_deg, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(velocity[s], expected.velocity_deg_s, rtol=0, atol=1e-9)
+    assert angle.shape == (4, int(round(spec["duration_s"] / T.FRAME_S)) + 1)
+
+
 def test_seeded_generator_is_deterministic():
     a = T.random_trajectory(np.random.default_rng(5), "train")
     b = T.random_trajectory(np.random.default_rng(5), "train")
