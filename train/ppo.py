@@ -41,6 +41,8 @@ class PPOConfig:
     init_std: float = 0.5  # in units of the 1 %/frame limit
     reward_scale: float = 1.0  # rewards are multiplied by this for learning (rsl-rl does not normalise values)
     error_features: bool = False  # append (target - angle) / 5 deg and (target vel - vel) / 10 deg/s to the input
+    update_threads: int = 1  # torch threads in alg.update() only (collection and inference keep 1: the env's
+    # rollout threads own the cores then)
     checkpoint_every: int = 10  # iterations
 
 
@@ -51,7 +53,7 @@ LIMITS = {"num_envs": at_least(1), "steps_per_env": at_least(1), "hidden_dims": 
           "num_learning_epochs": at_least(1), "num_mini_batches": at_least(1), "clip_param": positive(),
           "gamma": unit_interval(open_low=True), "lam": unit_interval(), "entropy_coef": at_least(0),
           "value_loss_coef": at_least(0), "max_grad_norm": positive(), "init_std": positive(),
-          "reward_scale": positive(), "checkpoint_every": at_least(1)}
+          "reward_scale": positive(), "update_threads": at_least(1), "checkpoint_every": at_least(1)}
 
 
 def frames_per_iteration(cfg: PPOConfig) -> int:
@@ -149,7 +151,12 @@ def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval,
                 alg.process_env_step(obs, rewards, dones, extras)
                 run.returns.extend(venv.finished_returns())
             alg.compute_returns(obs)
-        losses = alg.update()
+        threads = torch.get_num_threads()
+        torch.set_num_threads(cfg.update_threads)
+        try:
+            losses = alg.update()
+        finally:
+            torch.set_num_threads(threads)
         iteration += 1
         dt = time.perf_counter() - t0
         scalars = {f"loss/{k}": v for k, v in losses.items()}
