@@ -5,10 +5,11 @@ one run after the other, and the table gives the median over seeds of the traini
     .venv/bin/python benchmarks/ppo_wallclock.py [--configs default e1m8t2 ...] [--seeds 0 1 2] [--frames 600000]
         [--eval-every 20000] [--out runs/ppo_wallclock] [--task abduction_4m]
 
-Configs are overrides of `PPOConfig` (`CONFIGS` below; `default` is none). Runs are normal run folders
-(`<out>/<config>/<seed>`), so a rerun resumes or reuses finished ones; `<out>/table.md` is rewritten at the end. The
-runs alternate configs within each seed (seed 0 of every config, then seed 1, ...), so that a change in the machine's
-load spreads over all configs. Wall times are this machine's: compare configs only within one table.
+Configs are overrides of `PPOConfig`'s defaults before this search (`BEFORE`: 256 envs, 5 epochs x 4 mini-batches;
+`CONFIGS` below; `default` is `BEFORE` itself; the search chose `e1m8t1_n64`, today's `PPOConfig()`). Runs are normal
+run folders (`<out>/<config>/<seed>`), so a rerun resumes or reuses finished ones; `<out>/table.md` is rewritten at
+the end. The runs alternate configs within each seed (seed 0 of every config, then seed 1, ...), so that a change in
+the machine's load spreads over all configs. Wall times are this machine's: compare configs only within one table.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ import json
 import statistics
 from pathlib import Path
 
+BEFORE = {"num_envs": 256, "num_learning_epochs": 5, "num_mini_batches": 4}  # PPOConfig's defaults before the search
 CONFIGS = {
     "default": {},
     "t2": {"update_threads": 2},
@@ -25,6 +27,10 @@ CONFIGS = {
     "e1m8t2": {"num_learning_epochs": 1, "num_mini_batches": 8, "update_threads": 2},
     "e2m4t2_err": {"num_learning_epochs": 2, "update_threads": 2, "error_features": True},
     "e1m8t2_err": {"num_learning_epochs": 1, "num_mini_batches": 8, "update_threads": 2, "error_features": True},
+    "e1m4t1": {"num_learning_epochs": 1},
+    "e2m8t1": {"num_learning_epochs": 2, "num_mini_batches": 8},
+    "e1m8t1_n128": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 128},
+    "e1m8t1_n64": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64},
 }
 DEGREES = ("2.0", "1.0", "0.5")
 
@@ -48,7 +54,8 @@ def _cell(runs: list[dict], deg: str) -> str:
 def table(results: dict[str, list[dict]], task: str) -> str:
     head = ["config", "overrides", "seeds", *[f"to {float(d):g} deg: wall · frames (seeds)" for d in DEGREES],
             "final MAE (median, deg)", "frames/s (median)"]
-    lines = [f"PPO on `{task}`: median over seeds of the training wall time (evaluations excluded) and frames to test "
+    lines = [f"PPO on `{task}` (overrides of the defaults before the search, {json.dumps(BEFORE)}): median over "
+             f"seeds of the training wall time (evaluations excluded) and frames to test "
              f"MAE at or below each threshold (a seed that never reached it counts as the slowest); evaluated every "
              f"--eval-every frames.", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, runs in results.items():
@@ -77,7 +84,7 @@ def main(argv=None) -> int:
             out = args.out / name / str(seed)
             cfg = args.out / name / "config.json"
             cfg.parent.mkdir(parents=True, exist_ok=True)
-            cfg.write_text(json.dumps(CONFIGS[name]))
+            cfg.write_text(json.dumps(BEFORE | CONFIGS[name]))
             m = train(args.task, "ppo", args.frames, seed, out, resume=True, config=cfg, eval_every=args.eval_every)
             results[name].append(m)
             print(f"{name} seed {seed}: MAE {m['mae_deg']:.2f} deg, to_accuracy {m['to_accuracy']}", flush=True)

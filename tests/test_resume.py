@@ -99,6 +99,23 @@ def test_resume_of_a_finished_run_checks_its_identity_too(tmp_path):
         train("abduction_ssp", "ppo", frames=128, seed=3, out=out, config=cfg, resume=True)
 
 
+def test_a_run_recorded_before_a_config_field_existed_is_the_run_with_its_old_value(tmp_path):
+    """`run.ADDED_FIELDS`: a PPO run whose config.json predates `update_threads` ran with 1 thread in the update, so it
+    resumes as the run asking for 1 and refuses one asking for 2."""
+    import json
+
+    cfg = _file(tmp_path, PPO)
+    out = tmp_path / "run"
+    first = train("abduction_ssp", "ppo", frames=128, out=out, config=cfg, eval_every=10**9)
+    recorded = json.loads((out / "config.json").read_text())
+    del recorded["config"]["update_threads"]  # as written before the field existed
+    (out / "config.json").write_text(json.dumps(recorded))
+    assert train("abduction_ssp", "ppo", frames=128, out=out, config=cfg, resume=True) == first
+    with pytest.raises(ValueError, match=r"update_threads = 1; this command asks for 2"):
+        train("abduction_ssp", "ppo", frames=128, out=out, resume=True,
+              config=_file(tmp_path, {**PPO, "update_threads": 2}, "t2.json"))
+
+
 @pytest.mark.parametrize("kw,message", [
     ({"frames": 0}, r"--frames must be an integer >= 1, got 0"),
     ({"frames": -5}, r"--frames must be an integer >= 1, got -5"),

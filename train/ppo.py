@@ -23,15 +23,17 @@ from shoulder_bench.train.policy import ScaledPolicy
 
 @dataclass
 class PPOConfig:
-    num_envs: int = 256
+    # num_envs, num_learning_epochs, num_mini_batches: the wall-clock search of docs/training.md ("Training defaults",
+    # benchmarks/ppo_wallclock.py); before it 256, 5 and 4
+    num_envs: int = 64
     steps_per_env: int = 24
     hidden_dims: list[int] = field(default_factory=list)  # empty: the paper's ([256] or [250, 250, 250])
     activation: str = "relu"
     learning_rate: float = 1e-3
     schedule: str = "adaptive"  # rsl-rl: adapt the learning rate to keep the KL near desired_kl
     desired_kl: float = 0.01
-    num_learning_epochs: int = 5
-    num_mini_batches: int = 4
+    num_learning_epochs: int = 1
+    num_mini_batches: int = 8
     clip_param: float = 0.2
     gamma: float = 0.99  # the paper's
     lam: float = 0.95

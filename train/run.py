@@ -34,6 +34,9 @@ CHECKPOINT = "checkpoint.pt"
 LOCK = ".lock"
 IDENTITY = ("task", "algo", "seed", "muscle_model", "options", "model_version", "config", "init_from")
 BUDGET_FREE = ("frames",)  # algorithm config fields that are the run's budget, not its identity (DQN's `frames`)
+# config fields added after runs were recorded, with the value those runs had (their behaviour then): a run recorded
+# without one is the same run as one asking for that value
+ADDED_FIELDS = {"update_threads": 1}  # PPO: torch threads in the update, 1 before the field existed
 
 
 def write_json(path: Path, obj) -> None:
@@ -47,6 +50,8 @@ def identity_of(config: dict) -> dict:
     ident["options"] = ident["options"] or {}  # runs from before these fields were recorded: no options, model v1
     ident["model_version"] = ident["model_version"] or "1"
     ident["config"] = {k: v for k, v in (ident["config"] or {}).items() if k not in BUDGET_FREE}
+    if ident["algo"] == "ppo":
+        ident["config"] = ADDED_FIELDS | ident["config"]
     return json.loads(json.dumps(ident, default=str))  # tuples as lists: what config.json holds
 
 
