@@ -311,9 +311,9 @@ def load_surgery(folders) -> list[dict]:
 def _surgery_html(summary: dict) -> str:
     import html
 
-    from shoulder_bench.eval.surgery_report import SECTION_HEAD, leaderboard_rows, section
+    from shoulder_bench.eval.surgery_report import SECTION_HEAD, leaderboard_rows, section_intro
 
-    intro = section(summary).split("\n")[2]  # the section's paragraph, as in the Markdown
+    intro = section_intro(summary)
     head = "".join(f"<th>{html.escape(h)}</th>" for h in SECTION_HEAD)
     body = "".join("<tr>" + "".join(f"<td>{html.escape(row[h])}</td>" for h in SECTION_HEAD) + "</tr>"
                    for row in leaderboard_rows(summary))

@@ -80,16 +80,20 @@ def leaderboard_rows(summary: dict) -> list[dict]:
     return rows
 
 
-def section(summary: dict) -> str:
-    """The leaderboard's "surgery" section (Markdown)."""
+def section_intro(summary: dict) -> str:
+    """The "surgery" section's paragraph: what the rows are and which force tables they ran on."""
     t = summary["tables"]
     label = (f"force tables {t['folder']} last changed in commit {t['commit'][:10]} (code at {t['head'][:10]})"
              if t.get("commit") else f"force tables {t['folder']} (SHA-256 {t['sha256'][:12]})")
     label += " (working tree differs)" if t.get("dirty") else ""
-    lines = ["## surgery", "",
-             "The re-learning experiment (issue 13 §3, `shoulder-bench surgery`; docs/surgery.md): the pre-op agent on "
-             "the post-op shoulder zero-shot, fine-tuned, and an agent trained post-op from scratch. MAE in deg on the "
-             f"paper test set (mean ± std over seeds). {summary['definition']}. Run on {label}.", "",
+    return ("The re-learning experiment (issue 13 §3, `shoulder-bench surgery`; docs/surgery.md): the pre-op agent on "
+            "the post-op shoulder zero-shot, fine-tuned, and an agent trained post-op from scratch. MAE in deg on the "
+            f"paper test set (mean ± std over seeds). {summary['definition']}. Run on {label}.")
+
+
+def section(summary: dict) -> str:
+    """The leaderboard's "surgery" section (Markdown)."""
+    lines = ["## surgery", "", section_intro(summary), "",
              "| " + " | ".join(SECTION_HEAD) + " |", "|" + "---|" * len(SECTION_HEAD)]
     lines += ["| " + " | ".join(row[h] for h in SECTION_HEAD) + " |" for row in leaderboard_rows(summary)]
     return "\n".join(lines) + "\n"

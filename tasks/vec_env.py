@@ -75,12 +75,9 @@ class VecEnv(_RslVecEnv):
         self.targets = np.zeros((self.num_envs, n_frames + 1))
         self.target_vel = np.zeros_like(self.targets)
         self.random_target = np.array([t is None for t in self.fixed])  # copies that draw a target per episode
-        self.fixed_targets, self.fixed_target_vel = np.zeros_like(self.targets), np.zeros_like(self.targets)
-        for i, tr in enumerate(self.fixed):  # a given target, padded with its last angle and zero velocity
+        for i, tr in enumerate(self.fixed):  # a given target is every episode's: set once, never redrawn
             if tr is not None:
-                self.fixed_targets[i, :len(tr.angle_deg)] = tr.angle_deg
-                self.fixed_targets[i, len(tr.angle_deg):] = tr.angle_deg[-1]
-                self.fixed_target_vel[i, :len(tr.angle_deg)] = tr.velocity_deg_s
+                self._set_targets([i], tr.angle_deg[None], tr.velocity_deg_s[None])
         self.frames = np.zeros(self.num_envs, dtype=np.int64)
         self.qpos, self.qvel = np.zeros((self.num_envs, self.sim.nq)), np.zeros((self.num_envs, self.sim.nv))
         self.act = np.zeros((self.num_envs, self.n))
@@ -125,14 +122,9 @@ class VecEnv(_RslVecEnv):
         the physiology state, in arrays; per copy only what its own generators draw (its target's end points, its
         randomised arm, its noise), so that copy i is the single env seeded seed + i."""
         idx = np.asarray(idx, dtype=np.int64)
-        drawn = idx[self.random_target[idx]]
-        if drawn.size:  # all random targets of the split have the same length
-            angle, velocity = targets.random_targets([self.rngs[i] for i in drawn], self.task.split)
-            k = angle.shape[1]
-            self.targets[drawn, :k], self.targets[drawn, k:] = angle, angle[:, -1:]
-            self.target_vel[drawn, :k], self.target_vel[drawn, k:] = velocity, 0.0
-        given = idx[~self.random_target[idx]]  # fixed targets: their arrays, set once in __init__
-        self.targets[given], self.target_vel[given] = self.fixed_targets[given], self.fixed_target_vel[given]
+        drawn = idx[self.random_target[idx]]  # copies with a given target keep it (set in __init__)
+        if drawn.size:
+            self._set_targets(drawn, *targets.random_targets([self.rngs[i] for i in drawn], self.task.split))
         start = self.targets[idx, 0]
         self.qpos[idx] = self.arm.qpos(np.radians(start))
         self.qvel[idx] = 0.0
@@ -155,6 +147,12 @@ class VecEnv(_RslVecEnv):
         self._return[idx] = 0.0
         self._abs_err[idx] = 0.0
         self.episode_length_buf[torch.as_tensor(idx, device=self.device)] = 0
+
+    def _set_targets(self, rows, angle: np.ndarray, velocity: np.ndarray) -> None:
+        """Targets (len(rows), K) of the copies `rows`, padded past frame K - 1 with the last angle, zero velocity."""
+        k = angle.shape[1]
+        self.targets[rows, :k], self.targets[rows, k:] = angle, angle[:, -1:]
+        self.target_vel[rows, :k], self.target_vel[rows, k:] = velocity, 0.0
 
     @property
     def q(self) -> np.ndarray:
