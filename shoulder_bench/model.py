@@ -8,7 +8,8 @@ MuJoCo's `mjcb_act_gain` / `mjcb_act_bias` are process-global. Two facts shape t
 - Several models (and copies of them) may live in one process. Each model carries its force law's id in
   `actuator_user[:, 0]` (column 1 is the muscle's column in that law), so the one installed callback finds the law of
   whatever model it is called for; an unknown id gives zero force rather than an exception inside MuJoCo. The law
-  sees one joint's angle and velocity, chosen per `attach_law` (v1: abduction, v2: shoulder_elv) and kept with the id.
+  sees one joint's angle and velocity, chosen per `attach_law` (v1: abduction, v2: shoulder_elv) and kept with the id;
+  a length-keyed law (the full shoulder's `tendon_law.TendonLaw`) sees each actuator's tendon length instead.
 
 Per evaluation MuJoCo calls gain then bias for actuator 0, 1, ... in order; the gain call of the first muscle
 evaluates the law for all muscles at once (one compiled kernel call) and the other calls read that result. The
@@ -58,25 +59,30 @@ def law_joint(m: mujoco.MjModel, joint: str | None = None) -> str:
 class _ModelEntry:
     """Per model: its law, the law column of each actuator (-1: not simulated), actuator order, joint addresses."""
 
-    __slots__ = ("ref", "law", "cols", "order", "first", "qadr", "vadr")
+    __slots__ = ("ref", "law", "cols", "order", "first", "qadr", "vadr", "acts")
 
-    def __init__(self, m: mujoco.MjModel, law, joint: str):
+    def __init__(self, m: mujoco.MjModel, law, joint: str | None):
         self.ref = weakref.ref(m)
         self.law = law
         self.cols = [int(c) for c in np.asarray(m.actuator_user)[:, 1]]
         # the actuator whose ctrl holds each muscle's activation (a muscle's actuators all carry it: v2's ld1-3)
         self.order = np.array([self.cols.index(c) for c in law.first_table])
         self.first = min(i for i, c in enumerate(self.cols) if c >= 0)
-        jnt = m.joint(joint).id
-        self.qadr, self.vadr = int(m.jnt_qposadr[jnt]), int(m.jnt_dofadr[jnt])
+        self.acts = np.array([self.cols.index(c) for c in range(len(law.actuators))])  # actuator of each column
+        if joint is None:  # a length-keyed law (TendonLaw) reads each actuator's length, no joint
+            self.qadr = self.vadr = -1
+        else:
+            jnt = m.joint(joint).id
+            self.qadr, self.vadr = int(m.jnt_qposadr[jnt]), int(m.jnt_dofadr[jnt])
 
 
 class _DataEntry:
-    __slots__ = ("ref", "qpos", "qvel", "ctrl", "gain", "bias")
+    __slots__ = ("ref", "qpos", "qvel", "ctrl", "length", "speed", "gain", "bias")
 
     def __init__(self, d: mujoco.MjData):
         self.ref = weakref.ref(d)
         self.qpos, self.qvel, self.ctrl = d.qpos, d.qvel, d.ctrl  # views stay valid while d lives
+        self.length, self.speed = d.actuator_length, d.actuator_velocity
         self.gain, self.bias = [], []
 
 
@@ -122,7 +128,10 @@ def _gain(m, d, i):
     if c < 0:
         return 0.0
     if i == e.first:  # MuJoCo visits actuators in order: evaluate all muscles once, at the first one
-        gain, bias = e.law.gain_bias_one(s.qpos[e.qadr], s.qvel[e.vadr], s.ctrl[e.order])
+        if e.qadr < 0:  # a length-keyed law: each tendon's length and lengthening rate
+            gain, bias = e.law.gain_bias_one(s.length[e.acts], s.speed[e.acts], s.ctrl[e.order])
+        else:
+            gain, bias = e.law.gain_bias_one(s.qpos[e.qadr], s.qvel[e.vadr], s.ctrl[e.order])
         s.gain = [-x for x in gain.tolist()]  # negative: muscles pull, shortening their tendon
         s.bias = [-x for x in bias.tolist()]
     return s.gain[c]
@@ -166,20 +175,27 @@ def installed_callbacks() -> str | None:
 
 def attach_law(m: mujoco.MjModel, law, joint: str | None = None) -> None:
     """Make the installed callback evaluate `law` for model `m` (and for later copies of it), at the angle and
-    velocity of `joint` (default `law_joint`: "abduction" (v1) if the model has it, else "shoulder_elv" (v2))."""
+    velocity of `joint` (default `law_joint`: "abduction" (v1) if the model has it, else "shoulder_elv" (v2)); a
+    length-keyed law (`tendon_law.TendonLaw`, kind "length") reads each actuator's own tendon length instead and
+    takes no joint."""
     names = muscle_names(m)
     unknown = [x for x in law.actuators if x not in names]
     if unknown:
         raise ValueError(f"the model has no actuator(s) {unknown}; it has {names}")
-    joint = law_joint(m, joint)
+    by_length = getattr(law, "kind", "joint") == "length"
+    if by_length and joint is not None:
+        raise ValueError("a length-keyed law reads each tendon's length; it takes no joint")
+    joint = None if by_length else law_joint(m, joint)
     law_id = next(_law_ids)
     from shoulder_bench import native as compiled  # lazily: numba loads (or compiles) the callbacks
 
     # the actuator whose ctrl is each table's activation: its muscle's first table's
     ctrl_of = [names.index(law.actuators[law.first_table[k]]) for k in law.muscle_of]
-    jnt = m.joint(joint).id
-    compiled.register(law_id, law, ctrl_of, int(m.jnt_qposadr[jnt]),
-                      int(m.jnt_dofadr[jnt]))  # complete before actuator_user names the id
+    qadr = vadr = 0
+    if joint is not None:
+        jnt = m.joint(joint).id
+        qadr, vadr = int(m.jnt_qposadr[jnt]), int(m.jnt_dofadr[jnt])
+    compiled.register(law_id, law, ctrl_of, qadr, vadr)  # complete before actuator_user names the id
     _LAWS[law_id] = (law, joint)
     m.actuator_user[:, 0] = law_id
     m.actuator_user[:, 1] = [law.actuators.index(x) if x in law.actuators else -1 for x in names]

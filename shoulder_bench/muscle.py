@@ -42,7 +42,7 @@ MUSCLE_MODELS = ("fem", "hill")
 # np.load parses each .npy header with ast.literal_eval, which on CPython 3.11 is not safe from several threads at once
 # ("AST constructor recursion depth mismatch", seen once in tests/test_model.py's 8-thread test): tables are read
 # one at a time
-_NPZ_LOCK = threading.Lock()
+NPZ_LOCK = threading.Lock()
 
 
 def check_muscle_model(muscle_model: str) -> str:
@@ -99,7 +99,7 @@ class MuscleTable:
         if not path.exists():
             raise FileNotFoundError(f"muscle table {path} is missing; {fix}")
         try:
-            with _NPZ_LOCK, np.load(path, allow_pickle=False) as z:
+            with NPZ_LOCK, np.load(path, allow_pickle=False) as z:
                 missing = [k for k in REQUIRED_KEYS if k not in z.files]
                 if missing:
                     raise ValueError(f"lacks {missing}")

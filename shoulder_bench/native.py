@@ -10,15 +10,17 @@ runs, so the two paths agree bit for bit.
 
 What a call reads:
 - From the calling model and data, through their C structs: `actuator_user` (and `nuser_actuator`) of the
-  model, `qpos`, `qvel`, `ctrl` of the data. The byte offsets of these fields in mjModel / mjData are found at import
-  by scanning the structs of small probe models for the known values (`find_offsets`: a pointer equal to
-  `d.qpos.ctypes.data`, a size equal to the probe's `nuser_actuator`, ...), each required to be the same in three
-  probes of different sizes; if any is not found, `AVAILABLE` is False, `REASON` says why and
-  `model.install_callbacks` falls back to the Python callbacks.
+  model, `qpos`, `qvel`, `ctrl` of the data, and for a length-keyed law (`tendon_law.TendonLaw`, the full
+  shoulder's) `actuator_length` and `actuator_velocity` instead of qpos and qvel. The byte offsets of these
+  fields in mjModel / mjData are found at import by scanning the structs of small probe models for the known
+  values (`find_offsets`: a pointer equal to `d.qpos.ctypes.data`, a size equal to the probe's `nuser_actuator`,
+  ...), each required to be the same in three probes of different sizes; if any is not found, `AVAILABLE` is
+  False, `REASON` says why and `model.install_callbacks` falls back to the Python callbacks.
 - Per actuator, the law id in `actuator_user[i, 0]` and the law's column in `[i, 1]` (as `model.attach_law` writes
   them). The id is a row of the process-global registry: addresses of the law's flat table, moment arms, activation
-  levels and force-velocity scales, the grid constants, the law joint's qpos / dof address in that model, and, per
-  column, the actuator whose ctrl is that column's activation (a muscle's first actuator: v2's ld drives ld1-3).
+  levels and force-velocity scales, the grid constants (a length-keyed law: per-column first knot and 1 / step),
+  the law joint's qpos / dof address in that model, and, per column, the actuator whose ctrl is that column's
+  activation (a muscle's first actuator: v2's ld drives ld1-3).
   An id without a row, a column outside the law or a model without user columns gives 0.0.
 
 The registry: `_ROOT` (fixed for the process; the callbacks find it through the symbol `shoulder_bench_native_root`,
@@ -47,9 +49,10 @@ from shoulder_bench.muscle import law_cell, law_point
 SYMBOL = "shoulder_bench_native_root"
 ROW = 16  # int64 words per registry row
 # row layout (int64 words; A0 and INV_DA hold float64 bits)
-VALID, FLAT, ARM, LEVELS, NIVS, CTRL_OF, NCOL, NK, NLEV, QADR, VADR, A0, INV_DA = range(13)
+VALID, FLAT, ARM, LEVELS, NIVS, CTRL_OF, NCOL, NK, NLEV, QADR, VADR, A0, INV_DA, MODE, X0, INV_DX = range(16)
+JOINT_MODE, LENGTH_MODE = 0, 1  # row[MODE]: the law reads one joint's angle (ForceLaw) or each tendon's length
 # _ROOT layout
-TABLE, M_USER, M_NUSER, D_QPOS, D_QVEL, D_CTRL = range(6)
+TABLE, M_USER, M_NUSER, D_QPOS, D_QVEL, D_CTRL, D_ALEN, D_AVEL = range(8)
 
 _ROOT = np.zeros(8, dtype=np.int64)
 llvm.add_symbol(SYMBOL, _ROOT.ctypes.data)
@@ -123,12 +126,20 @@ def _evaluate(m, d, i):
     arm = numba.carray(_f64p(row[ARM]), (nk, n))
     nivs = numba.carray(_f64p(row[NIVS]), n)
     ctrl_of = numba.carray(_i64p(row[CTRL_OF]), n)
-    qpos = numba.carray(_f64p(_word(dp + root[D_QPOS])), row[QADR] + 1)
-    qvel = numba.carray(_f64p(_word(dp + root[D_QVEL])), row[VADR] + 1)
     ctrl = numba.carray(_f64p(_word(dp + root[D_CTRL])), ctrl_of[c] + 1)
-    i_cell, w = law_cell(qpos[row[QADR]], rowf[A0], rowf[INV_DA], nk - 1.000001)
-    _, per_unit, passive, fv = law_point(flat, arm, levels, n, c, i_cell, w, ctrl[ctrl_of[c]], qvel[row[VADR]],
-                                         nivs[c])
+    if row[MODE] == LENGTH_MODE:  # TendonLaw: this actuator's own tendon length and lengthening rate
+        x0 = numba.carray(_f64p(row[X0]), n)
+        inv_dx = numba.carray(_f64p(row[INV_DX]), n)
+        length = numba.carray(_f64p(_word(dp + root[D_ALEN])), i + 1)
+        speed = numba.carray(_f64p(_word(dp + root[D_AVEL])), i + 1)
+        i_cell, w = law_cell(length[i], x0[c], inv_dx[c], nk - 1.000001)
+        velocity = speed[i]
+    else:
+        qpos = numba.carray(_f64p(_word(dp + root[D_QPOS])), row[QADR] + 1)
+        qvel = numba.carray(_f64p(_word(dp + root[D_QVEL])), row[VADR] + 1)
+        i_cell, w = law_cell(qpos[row[QADR]], rowf[A0], rowf[INV_DA], nk - 1.000001)
+        velocity = qvel[row[VADR]]
+    _, per_unit, passive, fv = law_point(flat, arm, levels, n, c, i_cell, w, ctrl[ctrl_of[c]], velocity, nivs[c])
     return -(per_unit * fv), -passive
 
 
@@ -179,17 +190,22 @@ def _register(law_id: int, law, ctrl_of, qadr: int, vadr: int) -> None:
     while law_id >= len(table):
         table = _grow(2 * len(table))
     flat, arm, levels, a0, inv_da, nivs = law.kernel_arguments()
+    length_mode = getattr(law, "kind", "joint") == "length"  # TendonLaw: a0, inv_da are per-tendon arrays
     ctrl_of = np.ascontiguousarray(ctrl_of, dtype=np.int64)
-    arrays = tuple(np.ascontiguousarray(x, dtype=np.float64) for x in (flat, arm, levels, nivs))
-    flat, arm, levels, nivs = arrays
+    grid = (a0, inv_da) if length_mode else (np.zeros(1), np.zeros(1))
+    arrays = tuple(np.ascontiguousarray(x, dtype=np.float64) for x in (flat, arm, levels, nivs, *grid))
+    flat, arm, levels, nivs, x0, inv_dx = arrays
     n = arm.shape[1]
-    if ctrl_of.shape != (n,) or nivs.shape != (n,) or flat.size != arm.shape[0] * levels.size * n:
+    if ctrl_of.shape != (n,) or nivs.shape != (n,) or flat.size != arm.shape[0] * levels.size * n or \
+            (length_mode and (x0.shape != (n,) or inv_dx.shape != (n,))):
         raise ValueError("inconsistent law arrays for the native callback")
     row = np.zeros(ROW, dtype=np.int64)
-    row[FLAT], row[ARM], row[LEVELS], row[NIVS] = (x.ctypes.data for x in arrays)
+    row[FLAT], row[ARM], row[LEVELS], row[NIVS], row[X0], row[INV_DX] = (x.ctypes.data for x in arrays)
     row[CTRL_OF] = ctrl_of.ctypes.data
     row[NCOL], row[NK], row[NLEV], row[QADR], row[VADR] = n, arm.shape[0], levels.size, qadr, vadr
-    row[A0:INV_DA + 1] = np.array([a0, inv_da], dtype=np.float64).view(np.int64)
+    row[MODE] = LENGTH_MODE if length_mode else JOINT_MODE
+    if not length_mode:
+        row[A0:INV_DA + 1] = np.array([a0, inv_da], dtype=np.float64).view(np.int64)
     _KEEP[law_id] = (*arrays, ctrl_of, law)
     table[law_id, 1:] = row[1:]
     table[law_id, VALID] = 1  # last: a reader sees a complete row or none
@@ -238,7 +254,9 @@ def find_offsets() -> dict[str, int]:
         targets = {"actuator_user": (m._address, m.actuator_user.ctypes.data, True),
                    "nuser_actuator": (m._address, nuser, False),
                    "qpos": (d._address, d.qpos.ctypes.data, True), "qvel": (d._address, d.qvel.ctypes.data, True),
-                   "ctrl": (d._address, d.ctrl.ctypes.data, True)}
+                   "ctrl": (d._address, d.ctrl.ctypes.data, True),
+                   "actuator_length": (d._address, d.actuator_length.ctypes.data, True),
+                   "actuator_velocity": (d._address, d.actuator_velocity.ctypes.data, True)}
         for name, (address, value, pointer) in targets.items():
             hits = set(_matches(address, value, pointer))
             found[name] = hits if name not in found else found[name] & hits
@@ -253,7 +271,8 @@ try:
     OFFSETS = find_offsets()
     AVAILABLE, REASON = True, ""
     _ROOT[M_USER], _ROOT[M_NUSER] = OFFSETS["actuator_user"], OFFSETS["nuser_actuator"]
-    _ROOT[D_QPOS], _ROOT[D_QVEL], _ROOT[D_CTRL] = (OFFSETS[k] for k in ("qpos", "qvel", "ctrl"))
+    _ROOT[D_QPOS], _ROOT[D_QVEL], _ROOT[D_CTRL], _ROOT[D_ALEN], _ROOT[D_AVEL] = (
+        OFFSETS[k] for k in ("qpos", "qvel", "ctrl", "actuator_length", "actuator_velocity"))
 except Exception as exc:  # noqa: BLE001 - any failure means: use the Python callbacks
     OFFSETS, AVAILABLE, REASON = {}, False, f"native muscle callback unavailable: {exc}"
 

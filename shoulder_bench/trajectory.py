@@ -95,12 +95,19 @@ def load_csv(path: Path | str) -> list[Trajectory]:
     UTF-8 with or without a byte-order mark (Excel's "CSV UTF-8"); spaces around header names and values are ignored.
     """
     path = Path(path)
+    return [from_array(a, name=name) for name, a in read_frames(path, ("angle_deg",), _check_angles)]
+
+
+def read_frames(path: Path, values: tuple[str, ...], check) -> list[tuple[str, np.ndarray]]:
+    """Each trajectory of a CSV file as (name, values at 0.1 s frames), (K,) for one value column, (K, C) for more:
+    the file, header, rows and times checked (errors name the file and row), `check(values, where, rows)` for the
+    values, then linear resampling to the frame rate. The 1-DOF and 3-DOF loaders' one reader."""
     if not path.exists():
         raise ValueError(f"trajectory file {path} does not exist")
     if path.is_dir():
         raise ValueError(f"trajectory path {path} is a directory, not a CSV file; give the file itself")
     try:
-        groups = _read_rows(path)
+        groups = _read_rows(path, values)
     except UnicodeDecodeError as exc:
         raise ValueError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start}); save it as UTF-8 CSV "
                          f"(Excel: \"CSV UTF-8\")") from None
@@ -115,7 +122,7 @@ def load_csv(path: Path | str) -> list[Trajectory]:
         bad_t = np.flatnonzero(~np.isfinite(t))
         if bad_t.size:
             raise ValueError(f"{where}: row {rows[bad_t[0]]}: time_s is not finite; fix that row")
-        _check_angles(a, where, rows)
+        check(a, where, rows)
         steps = np.flatnonzero(np.diff(t) <= 0)
         if steps.size:
             raise ValueError(f"{where}: row {rows[steps[0] + 1]}: time_s {t[steps[0] + 1]:g} does not increase "
@@ -123,20 +130,24 @@ def load_csv(path: Path | str) -> list[Trajectory]:
         frames = np.arange(0.0, t[-1] - t[0] + 1e-9, FRAME_S)
         if len(frames) < 2:
             raise ValueError(f"{where}: spans {t[-1] - t[0]:g} s; a trajectory needs at least 0.1 s (two frames)")
-        out.append(from_array(np.interp(frames + t[0], t, a), name=f"{path.name}:{key}"))
+        cols = a.reshape(len(t), -1)
+        resampled = np.stack([np.interp(frames + t[0], t, cols[:, c]) for c in range(cols.shape[1])], axis=1)
+        out.append((f"{path.name}:{key}", resampled[:, 0] if a.ndim == 1 else resampled))
     return out
 
 
-def _read_rows(path: Path) -> dict[str, tuple[list, list, list]]:
-    """(times, angles, CSV row numbers) per trajectory key; ValueError naming the file for a bad header or row."""
+def _read_rows(path: Path, values=("angle_deg",)) -> dict[str, tuple[list, list, list]]:
+    """(times, value rows, CSV row numbers) per trajectory key; ValueError naming the file for a bad header or row.
+    `values`: the value columns (1-DOF: angle_deg; 3-DOF: plane_deg, elevation_deg, rotation_deg); a value row is
+    one float for a single column, else a list of them."""
     with path.open(newline="", encoding="utf-8-sig") as f:
         reader = csv.reader(f)
         cols = [c.strip() for c in next(reader, [])]
-        missing = [c for c in ("time_s", "angle_deg") if c not in cols]
+        missing = [c for c in ("time_s", *values) if c not in cols]
         if missing:
             raise ValueError(f"{path}: missing column(s) {missing} (found {cols}); the header must be "
-                             f"`time_s,angle_deg` with an optional `trajectory` column")
-        it, ia = cols.index("time_s"), cols.index("angle_deg")
+                             f"`time_s,{','.join(values)}` with an optional `trajectory` column")
+        it, iv = cols.index("time_s"), [cols.index(c) for c in values]
         ik = cols.index("trajectory") if "trajectory" in cols else None
         groups: dict[str, tuple[list, list, list]] = {}
         for row_no, row in enumerate(reader, start=2):
@@ -145,11 +156,12 @@ def _read_rows(path: Path) -> dict[str, tuple[list, list, list]]:
                 continue  # a blank line
             g = groups.setdefault((row[ik] if ik is not None else "") or "0", ([], [], []))
             try:
-                g[0].append(float(row[it]))
-                g[1].append(float(row[ia]))
+                t, v = float(row[it]), [float(row[i]) for i in iv]
             except ValueError:
-                raise ValueError(f"{path}: row {row_no}: time_s={row[it]!r}, angle_deg={row[ia]!r} are not numbers; "
-                                 f"fix that row") from None
+                cells = ", ".join(f"{c}={row[i]!r}" for c, i in zip(("time_s", *values), (it, *iv)))
+                raise ValueError(f"{path}: row {row_no}: {cells} are not numbers; fix that row") from None
+            g[0].append(t)
+            g[1].append(v[0] if len(v) == 1 else v)
             g[2].append(row_no)
     return groups
 

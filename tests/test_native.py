@@ -21,7 +21,8 @@ def _restore_default_callbacks():
 
 def test_offsets_are_found_and_native_is_the_default():
     assert native.AVAILABLE, native.REASON
-    assert set(native.OFFSETS) == {"actuator_user", "nuser_actuator", "qpos", "qvel", "ctrl"}
+    assert set(native.OFFSETS) == {"actuator_user", "nuser_actuator", "qpos", "qvel", "ctrl", "actuator_length",
+                                   "actuator_velocity"}
     assert native.find_offsets() == native.OFFSETS  # the same again, from fresh probes
     install_callbacks()
     assert installed_callbacks() == "native" and mujoco.get_mjcb_act_gain() is native.GAIN

@@ -16,11 +16,9 @@ caller) and `training_s()` the rest, the training wall time. Both survive a kill
 """
 from __future__ import annotations
 
-import fcntl
 import json
 import os
 import shutil
-import socket
 import time
 from collections import deque
 from pathlib import Path
@@ -30,8 +28,9 @@ import torch
 from torch.utils.tensorboard import SummaryWriter
 from tqdm import tqdm
 
+from shoulder_bench.locks import LOCK, FolderLock  # noqa: F401 (FolderLock: where callers import it)
+
 CHECKPOINT = "checkpoint.pt"
-LOCK = ".lock"
 IDENTITY = ("task", "algo", "seed", "muscle_model", "options", "model_version", "config", "init_from")
 BUDGET_FREE = ("frames",)  # algorithm config fields that are the run's budget, not its identity (DQN's `frames`)
 # config fields added after runs were recorded, with the value those runs had (their behaviour then): a run recorded
@@ -92,29 +91,6 @@ def load_checkpoint(folder: Path) -> dict:
     if not isinstance(ckpt, dict) or not {"frames", "config", "state"} <= set(ckpt):
         raise ValueError(f"checkpoint {path} is not a shoulder_bench checkpoint")
     return ckpt
-
-
-class FolderLock:
-    """An exclusive OS lock (flock) on `<folder>/.lock`, naming its holder; ValueError if another process has it."""
-
-    def __init__(self, folder: Path):
-        self.path = folder / LOCK
-        self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = os.pread(self.fd, 4096, 0).decode(errors="replace").strip() or "another process"
-            os.close(self.fd)
-            raise ValueError(f"run folder {folder} is in use by {holder}; wait for it to finish or stop it, "
-                             f"or choose another --out") from None
-        os.ftruncate(self.fd, 0)
-        os.pwrite(self.fd, f"pid {os.getpid()} on {socket.gethostname()} since {time.strftime('%Y-%m-%d %H:%M:%S')}"
-                           .encode(), 0)
-
-    def release(self) -> None:
-        if self.fd is not None:
-            os.close(self.fd)  # closing the descriptor releases the lock
-            self.fd = None
 
 
 class Run:

@@ -16,6 +16,10 @@ def _muscle(name: str) -> str:
 
 
 def _build(args) -> int:
+    if args.full:
+        return _build_full(args)
+    if args.jobs != 1:
+        raise SystemExit("shoulder-bench fem build: error: --jobs is for --full")
     from shoulder_bench.authoring.fem.build import build
 
     muscles = (args.muscle,) if args.muscle else anatomy.MUSCLES
@@ -33,7 +37,34 @@ def _build(args) -> int:
     return 0
 
 
+def _build_full(args) -> int:
+    from shoulder_bench.authoring.fem import full
+    from shoulder_bench.full_arm import TENDONS
+
+    if args.muscle:
+        raise SystemExit("shoulder-bench fem build: error: --muscle is for the v1 tables; with --full give "
+                         f"--tendon (one of {', '.join(TENDONS)})")
+    t0 = time.perf_counter()
+    try:
+        metas = full.build(coarse=args.coarse, out=args.out, jobs=args.jobs,
+                           tendons_=tuple(args.tendon) if args.tendon else None)
+    except ValueError as exc:
+        raise SystemExit(f"shoulder-bench fem build: error: {exc}") from None
+    for t, m in metas.items():
+        n, lam = m["newton_iterations"], m["fibre_stretch_range"]
+        how = "up to date, nothing to do" if m["cached"] else "solved"
+        print(f"{t}: {m['sheet']['resolution']} sheet, {how} ({m['build_seconds']:.1f} s to solve; Newton "
+              f"{n['total']} iterations, <= {n['max_per_point']} per point, {m['tolerance']}; fibre stretch "
+              f"{lam[0]:.3f}-{lam[1]:.3f})")
+    print(f"total {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
 def _verify(args) -> int:
+    if args.full:
+        from shoulder_bench.authoring.fem.verify_full import verify as verify_full
+
+        return verify_full(folder=args.tables, coarse=args.coarse)
     from shoulder_bench.authoring.fem.verify import verify
 
     return verify(folder=args.tables, out=args.out, figure=not args.no_figure)
@@ -52,7 +83,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     b = sub.add_parser("build", help="solve the muscle sheets over the grid and write models/muscles/<m>_fem.npz")
     b.add_argument("--muscle", type=_muscle, help=f"one of {', '.join(anatomy.MUSCLES)} (default: all)")
     b.add_argument("--coarse", action="store_true", help="coarse meshes (CI); same grid; needs --out")
-    b.add_argument("--out", type=Path, default=None, help="output folder, created if missing (default: models/muscles)")
+    b.add_argument("--out", type=Path, default=None,
+                   help="output folder, created if missing (default: models/muscles, with --full models/muscles_full)")
+    b.add_argument("--full", action="store_true",
+                   help="the full shoulder's 15 tendons over the 3-DOF pose space (models/muscles_full)")
+    b.add_argument("--tendon", action="append", help="with --full: only this tendon (repeatable; default all)")
+    b.add_argument("--jobs", type=int, default=1, help="with --full: solve this many tendons at once (processes)")
     b.set_defaults(func=_build)
     v = sub.add_parser("verify", help="re-solve held-out points, compare MuJoCo's torque with the FEM's, check "
                        "literature bands, draw the figure; exit status 1 when any check fails")
@@ -60,6 +96,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     v.add_argument("--out", type=Path, default=None,
                    help="folder for the figure muscle_torques.png (default: the current directory)")
     v.add_argument("--no-figure", action="store_true")
+    v.add_argument("--full", action="store_true", help="the full shoulder's tables (default folder "
+                   "models/muscles_full): held-out poses re-solved, MuJoCo vs FEM over the 3-DOF pose grid")
+    v.add_argument("--coarse", action="store_true", help="with --full: re-solve on coarse sheets (coarse tables)")
     v.set_defaults(func=_verify)
     c = sub.add_parser("convergence", help="mesh-refinement study of the torque at a few points (slow)")
     c.add_argument("--muscle", type=_muscle, default="ssp")

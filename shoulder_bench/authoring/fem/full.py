@@ -1,0 +1,185 @@
+"""FEM tables of the full shoulder's fifteen tendons over its 3-DOF pose space (issue 12 §2, docs/fem.md "Full
+shoulder"): `shoulder-bench fem build --full [--coarse --out DIR] [--jobs N]`.
+
+The reduced-order scheme. Each tendon's sheet is v2's (`v2_sheet`: a pennated fibre membrane of axial extent
+L_MT - l_ts in series with a rigid tendon at the MoBL parent's slack length; the parent's F0, l_opt, alpha0). Its
+force depends on the pose only through the musculotendon length L_MT(q), so the table over (plane x elevation x
+rotation) x activation factors exactly into
+
+    force_N(L, a) on a uniform length grid   x   the MuJoCo tendon's Jacobian at the pose,
+
+and MuJoCo applies the generalised force F(L_MT(q), a) (-ten_J(q)) through the tendon transmission, whose ten_J is
+the exact derivative of that same length. What is exploited: that one-dimensionality (a 3-D pose grid of
+P poses x J levels becomes K lengths x J levels, K = LENGTH_POINTS) and smoothness in length (linear interpolation
+between K knots; `verify_full` re-solves held-out poses). Not exploited: linearity in activation (the FEM is not
+linear in a; six levels). The length grid spans each tendon's L_MT over the pose space (`full_arm.pose_grid`, the
+coordinates' ranges) with LENGTH_MARGIN on both sides; outside it the law takes the edge values.
+
+What this is not: the issue's sheets over the real attachment footprints, with contact on the humeral head and a
+torque vector that is an output of the solve. Here the line of action is the MJCF tendon's (docs/fem.md).
+
+Caching and resuming: each tendon's table is written (atomically) as soon as it is solved, with its input hash
+(sheet mesh hash, spec, material, solver, length grid, CODE_VERSION); a rerun solves only the tendons whose table is
+missing or whose hash differs, so an interrupted build resumes where it stopped.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from shoulder_bench import full_arm
+from shoulder_bench.authoring import mobl_data, tendons
+from shoulder_bench.authoring.fem import output_folder, quantised, rounded
+from shoulder_bench.authoring.fem.build import NOISE_FORCE_N
+from shoulder_bench.authoring.fem.material import Material
+from shoulder_bench.authoring.fem.shells import mesh_sha256
+from shoulder_bench.authoring.fem.solver import NoConvergence
+from shoulder_bench.authoring.fem.v2 import ACTIVATIONS, SETTINGS, solve
+from shoulder_bench.authoring.fem.v2_sheet import RESOLUTION, SheetSpec, build_sheet
+from shoulder_bench.locks import FolderLock
+from shoulder_bench.muscle import replacing
+from shoulder_bench.tendon_law import table_path
+
+CODE_VERSION = "fem-full-1"  # bump when a change alters solutions; part of every table's input hash
+LENGTH_POINTS = 33
+LENGTH_MARGIN = 0.02  # fraction of the tendon's length range added below and above it
+PROVENANCE = ("MoBL-ARMS parent (models/reference/mobl_arms_parent_muscles.csv, from stanfordnmbl/osim-rl@610b95c "
+              "osim/models/MoBL_ARMS_J.osim; models/reference/README.md)")
+
+
+def specs() -> dict[str, SheetSpec]:
+    parent = tendons.load_parent()
+    return {t: SheetSpec.from_parent(t, parent[mobl_data.FULL_MUSCLES[t]]) for t in full_arm.TENDONS}
+
+
+def length_grids(pose_deg: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """Each tendon's uniform length grid (m, LENGTH_POINTS knots) over its L_MT on the pose space."""
+    poses = full_arm.pose_grid() if pose_deg is None else pose_deg
+    L, _ = full_arm.Pose().tendon_geometry(poses)
+    out = {}
+    for k, t in enumerate(full_arm.TENDONS):
+        lo, hi = float(L[:, k].min()), float(L[:, k].max())
+        pad = LENGTH_MARGIN * (hi - lo)
+        out[t] = np.linspace(lo - pad, hi + pad, LENGTH_POINTS)
+    return out
+
+
+def input_hash(spec: SheetSpec, resolution: str, lengths: np.ndarray, material: Material, settings) -> str:
+    sheet = build_sheet(spec, resolution, material.fibre)
+    blob = json.dumps(rounded({"mesh": mesh_sha256(sheet), "spec": spec.as_dict(), "material": material.as_dict(),
+                               "lengths": hashlib.sha256(quantised(lengths).tobytes()).hexdigest(),
+                               "solver": settings.as_dict(), "activation": ACTIVATIONS.tolist(),
+                               "code_version": CODE_VERSION}), sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
+def _cached(path: Path, digest: str) -> bool:
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return json.loads(str(z["meta"])).get("input_hash") == digest
+    except Exception:  # missing or unreadable: rebuild
+        return False
+
+
+def _solve_one(job) -> tuple[str, dict, float]:
+    t, spec, lengths, res, material, settings = job
+    t0 = time.perf_counter()
+    try:
+        fem = solve(spec, lengths - spec.l_ts, res, material, settings)
+    except NoConvergence as exc:
+        raise RuntimeError(f"{t}: the sheet did not converge over {lengths[0]:.4f}-{lengths[-1]:.4f} m ({exc}); "
+                           "the tables already written are kept, a rerun resumes") from exc
+    return t, fem, time.perf_counter() - t0
+
+
+def build(coarse: bool = False, out: Path | None = None, quiet: bool = False, jobs: int = 1,
+          tendons_: tuple[str, ...] | None = None, material: Material | None = None) -> dict[str, dict]:
+    """Build (or reuse) each tendon's table in `out` (default models/muscles_full); `jobs` processes solve tendons
+    in parallel. Returns {tendon: meta + cached}. --coarse needs --out (coarse tables never replace the shipped
+    ones)."""
+    if coarse and out is None:
+        raise ValueError(f"--coarse without --out would replace the full tables in {full_arm.TABLE_FOLDER}; "
+                         "give --out DIR")
+    names = full_arm.TENDONS if tendons_ is None else tuple(tendons_)
+    unknown = [t for t in names if t not in full_arm.TENDONS]
+    if unknown:
+        raise ValueError(f"unknown tendon(s) {unknown}; choose from {', '.join(full_arm.TENDONS)}")
+    if int(jobs) < 1:
+        raise ValueError(f"--jobs must be >= 1, got {jobs}")
+    folder = output_folder(out if out is not None else full_arm.TABLE_FOLDER, "--out")
+    folder.mkdir(parents=True, exist_ok=True)
+    lock = FolderLock(folder, "table folder", "give another --out")  # two builds never write one folder
+    try:
+        return _build(folder, coarse, quiet, jobs, names, material)
+    finally:
+        lock.release(remove=True)
+
+
+def _build(folder: Path, coarse: bool, quiet: bool, jobs: int, names: tuple, material) -> dict[str, dict]:
+    material, settings, res = material or Material(), SETTINGS, ("coarse" if coarse else "full")
+    grids, all_specs = length_grids(), specs()
+    result, todo = {}, []
+    for t in names:
+        digest = input_hash(all_specs[t], res, grids[t], material, settings)
+        path = table_path(t, "fem", folder)
+        if _cached(path, digest):
+            with np.load(path, allow_pickle=False) as z:
+                result[t] = dict(json.loads(str(z["meta"])), cached=True)
+        else:
+            todo.append((t, digest, path))
+    jobs_ = [(t, all_specs[t], grids[t], res, material, settings) for t, _, _ in todo]
+    where = {t: (digest, path) for t, digest, path in todo}
+    with tqdm(total=len(jobs_), desc="fem full (tendons)", disable=quiet or not jobs_) as bar:
+        if int(jobs) == 1 or len(jobs_) <= 1:
+            done = map(_solve_one, jobs_)
+        else:
+            pool = ProcessPoolExecutor(max_workers=int(jobs))
+            done = pool.map(_solve_one, jobs_)
+        for t, fem, seconds in done:
+            digest, path = where[t]
+            meta = _meta(t, all_specs[t], res, digest, material, settings, fem, seconds)
+            _write(path, grids[t], fem, meta)
+            result[t] = dict(meta, cached=False)
+            bar.update(1)
+        if int(jobs) > 1 and len(jobs_) > 1:
+            pool.shutdown()
+    return {t: result[t] for t in names}
+
+
+def _meta(t, spec, res, digest, material, settings, fem, seconds) -> dict:
+    f = fem["force"]
+    if np.any(f < -NOISE_FORCE_N):
+        raise ValueError(f"{t}: sheet pushes on its tendon ({f.min():.3g} N): not solver noise")
+    its = fem["newton_iterations"]
+    return {"model": "fem", "source": "fem", "muscle": t, "parent_muscle": mobl_data.FULL_MUSCLES[t],
+            "model_file": "models/shoulder_full_task.xml", "coordinate": "tendon length",
+            "law": "v2_sheet: pennated fibre membrane (Blemker fibres, co-rotational background) of axial extent "
+                   "L_MT - l_ts in series with a rigid tendon; force = the axial reaction at the insertion edge",
+            "pose_space_deg": {c: list(r) for c, r in full_arm.POSE_RANGE_DEG.items()},
+            "parameters": PROVENANCE, "F0_N": spec.f0, "optimal_fibre_length_m": spec.l_opt,
+            "tendon_slack_length_m": spec.l_ts, "pennation_angle_rad": spec.alpha0,
+            "sheet": {"rest_extent_m": spec.rest_extent, "width_m": spec.width,
+                      "thickness_m": spec.thickness(material.fibre.sigma_max), "resolution": list(RESOLUTION[res])},
+            "material": material.as_dict(), "solver": settings.as_dict(),
+            "tolerance": f"max nodal residual < {settings.tol} F0 ({settings.stall_factor * settings.tol} F0 for "
+                         f"{int(fem['stalled_solves'])} stalled solves)",
+            "newton_iterations": {"total": int(its.sum()), "max_per_point": int(its.max())},
+            "clamped_noise_N": float(max(0.0, -f.min())),
+            "fibre_stretch_range": [float(fem["fibre_stretch"][..., 0].min()),
+                                    float(fem["fibre_stretch"][..., 2].max())],
+            "code_version": CODE_VERSION, "input_hash": digest, "build_seconds": round(seconds, 2)}
+
+
+def _write(path: Path, lengths: np.ndarray, fem: dict, meta: dict) -> None:
+    arrays = {"length_m": lengths.astype(float), "activation": ACTIVATIONS.astype(float),
+              "force_N": np.maximum(fem["force"], 0.0), "lateral_force_N": fem["lateral_force_N"],
+              "newton_iterations": fem["newton_iterations"], "fibre_stretch": fem["fibre_stretch"],
+              "stalled_solves": fem["stalled_solves"], "meta": np.array(json.dumps(meta, sort_keys=True))}
+    with replacing(path) as tmp:
+        np.savez(tmp, **arrays)

@@ -1,0 +1,191 @@
+"""The muscle force law keyed on each tendon's own length: the full shoulder's (3-DOF) law.
+
+`muscle.ForceLaw` reads every table at one joint angle (v1's abduction, v2's locked elevation). On the 3-DOF
+model a pose is three coordinates, but each FEM sheet's force depends on the pose only through its musculotendon
+length (`shoulder_bench.authoring.fem.full`), so each table here is F(L, a) on its own uniform length grid, and
+the callback reads MuJoCo's `actuator_length` and `actuator_velocity` (the tendon's length and lengthening rate).
+The arithmetic is `muscle.law_point`, the same inlined function as ForceLaw's, with the moment arm fixed at -1 so
+that its force-velocity argument is the tendon's lengthening rate itself.
+
+Table format (`models/muscles_full/<tendon>_fem.npz`, float64):
+  length_m (K,)       uniform grid of musculotendon lengths (m)
+  activation (J,)     ascending, activation[0] == 0, activation[-1] == 1
+  force_N (K, J)      tendon force (pulling, N); column 0 is the passive force
+  meta                0-d string: JSON (source, muscle, parent muscle, optimal_fibre_length_m, ...)
+Lengths outside the grid take the edge values.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numba
+import numpy as np
+
+from shoulder_bench.muscle import NPZ_LOCK, VMAX_LOPT_PER_S, check_muscle_model, law_cell, law_point
+
+REQUIRED_KEYS = ("length_m", "activation", "force_N", "meta")
+REBUILD = "shoulder-bench fem build --full"
+
+
+def table_path(tendon: str, muscle_model: str, folder: Path | None = None) -> Path:
+    from shoulder_bench.full_arm import TABLE_FOLDER
+
+    return Path(folder or TABLE_FOLDER) / f"{tendon}_{muscle_model}.npz"
+
+
+@dataclass(frozen=True)
+class TendonTable:
+    muscle: str  # the tendon (actuator) it drives
+    length_m: np.ndarray
+    activation: np.ndarray
+    force_N: np.ndarray
+    meta: dict
+
+    @classmethod
+    def load(cls, path: Path) -> TendonTable:
+        """Read and check a table; errors name the file and the command that rebuilds it."""
+        path = Path(path)
+        fix = f"rebuild it with `{REBUILD}`"
+        if not path.exists():
+            raise FileNotFoundError(f"muscle table {path} is missing; {fix}")
+        try:
+            with NPZ_LOCK, np.load(path, allow_pickle=False) as z:
+                missing = [k for k in REQUIRED_KEYS if k not in z.files]
+                if missing:
+                    raise ValueError(f"lacks {missing}")
+                arrays = {k: np.asarray(z[k], dtype=float) for k in REQUIRED_KEYS if k != "meta"}
+                meta = json.loads(str(z["meta"]))
+        except Exception as exc:  # zip, JSON or key errors all mean the same thing to a user
+            raise ValueError(f"muscle table {path} is unreadable or corrupt ({exc}); {fix}") from exc
+        table = cls(muscle=meta.get("muscle", path.stem.rsplit("_", 1)[0]), meta=meta, **arrays)
+        k, j = len(table.length_m), len(table.activation)
+        problems = []
+        if table.force_N.shape != (k, j):
+            problems.append("array shapes disagree")
+        elif not np.all(np.isfinite(table.force_N)):
+            problems.append("non-finite values")
+        if k < 2 or not np.allclose(np.diff(table.length_m), table.length_m[1] - table.length_m[0]) or \
+                table.length_m[1] <= table.length_m[0]:
+            problems.append("length grid is not uniform and ascending")
+        if j < 2 or table.activation[0] != 0 or table.activation[-1] != 1 or np.any(np.diff(table.activation) <= 0):
+            problems.append("activation grid must rise from 0 to 1")
+        if "optimal_fibre_length_m" not in meta:
+            problems.append("meta lacks optimal_fibre_length_m (the force-velocity scale)")
+        if problems:
+            raise ValueError(f"muscle table {path}: {'; '.join(problems)}; {fix}")
+        return table
+
+
+class TendonLaw:
+    """Forces of n tendons, each at its own length, vectorised over a batch of states.
+
+    Same attributes as `muscle.ForceLaw` where the callbacks and tasks read them: `actuators` (the tables' tendons),
+    `groups` (muscle -> its tendons; one activation drives a group: ld -> ld1-3), `muscles`, `muscle_of`,
+    `first_table`. The tables are resampled onto one shared activation-level union (exact: each is piecewise linear
+    in activation and the union holds its knots) and stacked as F[length knot, level, tendon]; tendon c's knot k is at
+    length x0[c] + k / inv_dx[c]."""
+
+    kind = "length"
+
+    def __init__(self, tables: list[TendonTable], groups: dict[str, tuple[str, ...]] | None = None):
+        self.tables = tables
+        self.actuators = tuple(t.muscle for t in tables)
+        groups = {a: (a,) for a in self.actuators} if groups is None else {g: tuple(v) for g, v in groups.items()}
+        flat = [a for v in groups.values() for a in v]
+        if sorted(flat) != sorted(self.actuators) or len(set(flat)) != len(flat):
+            raise ValueError(f"muscle groups {groups} must name each table {self.actuators} exactly once")
+        self.groups, self.muscles = groups, tuple(groups)
+        self.muscle_of = np.array([next(k for k, v in enumerate(groups.values()) if a in v) for a in self.actuators])
+        self.first_table = [self.actuators.index(v[0]) for v in groups.values()]
+        k = len(tables[0].length_m)
+        if any(len(t.length_m) != k for t in tables):
+            raise ValueError("all tables of a tendon law must have the same number of length knots")
+        levels = np.unique(np.concatenate([t.activation for t in tables]))
+        force = np.stack([np.stack([np.interp(levels, t.activation, row) for row in t.force_N]) for t in tables],
+                         axis=-1)  # (K, J, n)
+        self.levels, self._k, self._n = levels, k, len(tables)
+        self._flat = np.ascontiguousarray(force.ravel())
+        self._arm = -np.ones((k, self._n))  # law_point's FV argument r * velocity * (-1 / vscale) = L' / vscale
+        self.x0 = np.array([t.length_m[0] for t in tables])
+        self.inv_dx = np.array([1.0 / (t.length_m[1] - t.length_m[0]) for t in tables])
+        self._neg_inv_vscale = -1.0 / np.array([VMAX_LOPT_PER_S * float(t.meta["optimal_fibre_length_m"])
+                                                for t in tables])
+
+    @classmethod
+    def load(cls, muscle_model: str = "fem", tendons=None, folder: Path | None = None,
+             groups: dict | None = None) -> TendonLaw:
+        """The law of `tendons` (default all of the full shoulder's) from `<folder>/<tendon>_<muscle_model>.npz`
+        (default models/muscles_full)."""
+        from shoulder_bench.full_arm import TENDONS
+
+        check_muscle_model(muscle_model)
+        names = tuple(TENDONS if tendons is None else tendons)
+        tables = []
+        for t in names:
+            p = table_path(t, muscle_model, folder)
+            table = TendonTable.load(p)
+            if table.muscle != t:
+                raise ValueError(f"muscle table {p} is for {table.muscle!r}, not {t!r}")
+            tables.append(table)
+        return cls(tables, groups)
+
+    def scaled(self, factors: dict[str, float]) -> TendonLaw:
+        """A new law with each muscle's tables scaled by `factors[muscle]` (as `ForceLaw.scaled`)."""
+        unknown = [m for m in factors if m not in self.groups]
+        if unknown:
+            raise ValueError(f"cannot scale muscle(s) {unknown}: the law has {self.muscles}")
+        bad = {m: f for m, f in factors.items() if not (math.isfinite(float(f)) and float(f) >= 0.0)}
+        if bad:
+            raise ValueError(f"muscle force factors must be finite numbers >= 0; got {bad}")
+        per = {a: float(f) for m, f in factors.items() for a in self.groups[m]}
+        return TendonLaw([t if per.get(t.muscle, 1.0) == 1.0 else dataclasses.replace(
+            t, force_N=t.force_N * per[t.muscle], meta={**t.meta, "force_factor": per[t.muscle]})
+            for t in self.tables], self.groups)
+
+    def kernel_arguments(self) -> tuple:
+        """(flat table, arms (K, n) of -1, activation levels, first knot per tendon (m), 1 / knot step per tendon,
+        -1 / FV velocity scale per tendon): what `shoulder_bench.native` holds for this law."""
+        return self._flat, self._arm, self.levels, self.x0, self.inv_dx, self._neg_inv_vscale
+
+    def _evaluate_all(self, length, velocity, activation) -> np.ndarray:
+        """(5, B, n): active force, active per unit activation, passive force, FV factor, gain."""
+        length = np.ascontiguousarray(np.broadcast_to(length, (len(activation), self._n)), dtype=np.float64)
+        velocity = np.ascontiguousarray(np.broadcast_to(velocity, length.shape), dtype=np.float64)
+        activation = np.ascontiguousarray(np.asarray(activation, dtype=np.float64)[:, self.muscle_of])
+        out = np.empty((5,) + activation.shape)
+        _kernel(self._flat, self._arm, self.levels, self.x0, self.inv_dx, self._neg_inv_vscale, length, velocity,
+                activation, out)
+        return out
+
+    def gain_bias_one(self, length, velocity, activation) -> tuple[np.ndarray, np.ndarray]:
+        """One state: tendon lengths (n,), lengthening rates (n,), activations per muscle (m,) -> (gain, bias) per
+        tendon, as `ForceLaw.gain_bias_one` (positive; the callbacks negate them)."""
+        out = self._evaluate_all(np.asarray(length)[None], np.asarray(velocity)[None], np.asarray(activation)[None])
+        return out[4, 0], out[2, 0]
+
+    def force(self, length, velocity, activation) -> np.ndarray:
+        """(B, n) tendon forces (N, pulling) at lengths (B, n) m, lengthening rates (B, n) m/s, activations
+        (B, muscles)."""
+        out = self._evaluate_all(length, velocity, activation)
+        return out[0] * out[3] + out[2]
+
+
+@numba.njit(cache=True, nogil=True)
+def _kernel(flat, arm, levels, x0, inv_dx, neg_inv_vscale, length, velocity, activation, out):
+    """The law for a batch, each tendon at its own length: out[0..4] as `muscle._kernel`."""
+    nb, n = activation.shape
+    kmax = arm.shape[0] - 1.000001
+    for b in range(nb):
+        for c in range(n):
+            i, w = law_cell(length[b, c], x0[c], inv_dx[c], kmax)
+            active, per_unit, passive, fv = law_point(flat, arm, levels, n, c, i, w, activation[b, c],
+                                                      velocity[b, c], neg_inv_vscale[c])
+            out[0, b, c] = active
+            out[1, b, c] = per_unit
+            out[2, b, c] = passive
+            out[3, b, c] = fv
+            out[4, b, c] = per_unit * fv
