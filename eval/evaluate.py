@@ -29,8 +29,23 @@ def check_csv(path: Path | str, option: str = "--trajectories", valid: str = TRA
     return path
 
 
-def trajectories_for(spec: str, option: str = "--trajectories") -> list[Trajectory]:
-    """"test" (the fixed 100), "combing" (synthetic, when shipped) or a CSV path."""
+def trajectories_for(spec: str, option: str = "--trajectories", task: str | None = None) -> list:
+    """"test" (the fixed 100), "combing" (synthetic, when shipped) or a CSV path; for a 3-DOF `task` the 3-DOF test
+    set, an ADL name (`trajectory3.ADL`) or a 3-DOF CSV file (time_s, plane_deg, elevation_deg, rotation_deg)."""
+    from shoulder_bench.tasks import is_3dof
+
+    if task is not None and is_3dof(task):
+        from shoulder_bench import trajectory3
+
+        if spec == "test":
+            return trajectory3.load_test_set()
+        if spec in trajectory3.ADL:
+            return [trajectory3.ADL[spec]()]
+        path = Path(spec)
+        if path.is_dir() or not path.exists():
+            raise FileNotFoundError(f"{option} {spec}: give test, one of {', '.join(trajectory3.ADL)} or a CSV file "
+                                    f"with columns time_s,{','.join(trajectory3.COLUMNS)}")
+        return trajectory3.load_csv(path)
     if spec == "test":
         return load_test_set()
     if spec == "combing":
@@ -97,8 +112,13 @@ def policy_for(spec: str, task: str | None = None, options: dict | None = None) 
 
     if spec == "reference":
         from shoulder_bench.eval.reference import ReferenceController
+        from shoulder_bench.tasks import is_3dof
 
         task = check_name(task or "abduction_4m")
+        if is_3dof(task):
+            from shoulder_bench.eval.reference3 import ReferenceController3
+
+            return ReferenceController3(task), {"task": task, "algo": "reference"}, task
         cond = {k: v for k, v in (options or {}).items() if k in CONDITION_OPTIONS}
         return ReferenceController(task, **cond), {"task": task, "algo": "reference"}, task
     from shoulder_bench.train.policy import load_policy
@@ -113,7 +133,8 @@ def policy_for(spec: str, task: str | None = None, options: dict | None = None) 
 
 def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: str | None = None,
              record: bool = False, options: dict | None = None, seed: int = 0) -> dict:
-    """Roll out `policy` (float32 obs (B, 4 + n) -> actions) greedily on every trajectory; return the metrics.
+    """Roll out `policy` (float32 obs -> actions) greedily on every trajectory; return the metrics (the tracking
+    error: |angle - target| on the 1-DOF tasks, the humerus orientation error on the 3-DOF ones).
 
     record=True adds "trace": angle_deg, target_deg (B, T) and activation (B, T, n) after each frame, NaN after a
     trajectory's end or crash. options: further task options (alpha, init, ...), as the policy was trained with.
@@ -122,9 +143,16 @@ def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: st
 
     options = dict(options or {}) | ({} if muscle_model is None else {"muscle_model": muscle_model})
     venv = shoulder_bench.make_vec(task, len(trajectories), seed=seed, trajectory=list(trajectories), **options)
+    from shoulder_bench.tasks import is_3dof
+
+    if record and is_3dof(task):
+        venv.close()
+        raise ValueError(f"{task}: recording traces is offered on the 1-DOF tasks only (yet)")
     n = len(trajectories)
     frames = venv.episode_frames.copy()
     err = np.full((n, int(frames.max())), np.nan)
+    per_coordinate = is_3dof(task)  # the 3-DOF tasks: also each coordinate's error
+    coord = np.full((n, int(frames.max()), 3), np.nan) if per_coordinate else None
     crashed = np.zeros(n, dtype=bool)
     active = np.ones(n, dtype=bool)
     obs = venv.get_observations()["policy"]
@@ -136,9 +164,11 @@ def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: st
             action = policy(obs)
             obs, _, done, _ = venv.step(action)
             obs = obs["policy"]
-            e = np.abs(venv.last_angle_deg - venv.last_target_deg)
+            e = venv.last_error_deg
             now_crashed = active & venv.last_crashed
             err[active & ~now_crashed, k] = e[active & ~now_crashed]
+            if per_coordinate:
+                coord[active & ~now_crashed, k] = venv.last_coordinate_error_deg[active & ~now_crashed]
             if record:
                 live = active & ~now_crashed
                 trace["angle_deg"][live, k] = venv.last_angle_deg[live]
@@ -158,6 +188,11 @@ def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: st
            "n_trajectories": n, "crashes": int(crashed.sum()), "frames": int(frames.sum()),
            "per_trajectory": {"mae_deg": per_mae.round(4).tolist(), "rmse_deg": per_rmse.round(4).tolist(),
                               "crashed": crashed.tolist()}}
+    if per_coordinate:  # crashed frames excluded (the orientation MAE carries the crash penalty)
+        from shoulder_bench.full_arm import COORDINATE_LABELS, COORDINATES
+
+        out["coordinate_mae_deg"] = {COORDINATE_LABELS[c]: float(np.nanmean(coord[..., k]))
+                                     for k, c in enumerate(COORDINATES)}
     if record:
         out["trace"] = trace
     return out

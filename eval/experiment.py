@@ -52,10 +52,10 @@ def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: P
     in the run's identity as `init_from`; its frames count from 0. metrics.json's `evaluations` is every test-set
     evaluation (frames, training wall s, MAE, RMSE, crashes)."""
     import shoulder_bench
+    from shoulder_bench.tasks import fixed_test_set
     from shoulder_bench.train.config import read_overrides
     from shoulder_bench.train.policy import save_policy
     from shoulder_bench.train.run import Run
-    from shoulder_bench.trajectory import load_test_set
 
     _, cls = algo_module(algo) if algo in ALGOS else (None, None)
     overrides = read_overrides(config, cls) if cls is not None else {}
@@ -90,7 +90,7 @@ def train(task: str, algo: str, frames: int | None = None, seed: int = 0, out: P
             venv.load_state_dict(run.checkpoint["state"]["env"])
         elif run.checkpoint is not None:
             print(f"warning: {run.dir / 'checkpoint.pt'} predates exact resume (no env state): the episodes restart")
-        test = load_test_set()
+        test = fixed_test_set(task)
 
         def on_eval(policy) -> None:
             m, training_s = timed_evaluate(run, policy, task, test, muscle_model=muscle_model, options=options)

@@ -80,6 +80,7 @@ def _entries(runs: Path | None, pretrained: bool) -> list[dict]:
     """Every policy on the board (spec, source label, policy, setting, metrics record), each run folder and policy
     read and checked before any evaluation."""
     from shoulder_bench.eval.evaluate import policy_for, run_config
+    from shoulder_bench.tasks import is_3dof
     from shoulder_bench.train.policy import pretrained_dir
 
     out = []
@@ -93,6 +94,8 @@ def _entries(runs: Path | None, pretrained: bool) -> list[dict]:
             raise FileNotFoundError(f"{runs} holds no finished runs (runs/<task>/<algo>/<seed>/metrics.json)")
         for run in found:
             cfg = run_config(run)
+            if is_3dof(cfg["task"]):  # the 3-DOF runs have their own section (eval.board3)
+                continue
             metrics = _read_json(run / "metrics.json")
             policy, meta, _ = policy_for(str(run))
             out.append({"spec": str(run), "source": f"runs: {runs}", "policy": policy, "metrics": metrics,
@@ -320,11 +323,13 @@ def _surgery_html(summary: dict) -> str:
     return f"<h2>Surgery</h2><p>{html.escape(intro)}</p><table><tr>{head}</tr>{body}</table>"
 
 
-def write(rows: list[dict], out: Path, surgery: list[dict] = ()) -> dict[str, Path]:
+def write(rows: list[dict], out: Path, surgery: list[dict] = (), full: list[dict] = ()) -> dict[str, Path]:
     """leaderboard.md, .csv and .html in `out`, all composed first and renamed into place together; `surgery`:
-    summaries of `shoulder-bench surgery` runs (`load_surgery`), each shown as a "surgery" section."""
+    summaries of `shoulder-bench surgery` runs (`load_surgery`), each shown as a "surgery" section; `full`: the
+    3-DOF rows (`eval.board3.collect`), shown as their own section."""
     import html
 
+    from shoulder_bench.eval import board3
     from shoulder_bench.eval.plots import checked_dir, replace_all
     from shoulder_bench.eval.suites import note as suite_note
     from shoulder_bench.eval.surgery_report import section
@@ -339,7 +344,7 @@ def write(rows: list[dict], out: Path, surgery: list[dict] = ()) -> dict[str, Pa
           + "".join("| " + " | ".join(line) + " |\n" for line in table)
           + "\n" + notes_text + "\n" + ("\n**The paper's qualitative findings, measured:**\n\n" if found else "")
           + "".join(f"- {f}\n" for f in found)
-          + "".join("\n" + section(summary) for summary in surgery))
+          + "".join("\n" + section(summary) for summary in surgery) + board3.markdown(list(full)))
     body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in line) + "</tr>" for line in table)
     notes = html.escape(notes_text).replace("**synthetic**", "<b>synthetic</b>")
     curves = _curves(rows)
@@ -349,7 +354,7 @@ def write(rows: list[dict], out: Path, surgery: list[dict] = ()) -> dict[str, Pa
             f"<table><tr>{''.join(f'<th>{html.escape(h)}</th>' for h in titles)}</tr>{body}</table><p>{notes}</p>"
             + (f"<h2>The paper's qualitative findings, measured</h2><ul>"
                f"{''.join(f'<li>{html.escape(x)}</li>' for x in found)}</ul>" if found else "")
-            + "".join(_surgery_html(summary) for summary in surgery)
+            + "".join(_surgery_html(summary) for summary in surgery) + board3.html(list(full))
             + "<h2>Sample efficiency</h2>"
             + (f"<p><img alt='sample-efficiency curves: test MAE against frames, 95 % bands over seeds' "
                f"src='data:image/png;base64,{curves}'></p><p>Test-set MAE at each evaluation during training "

@@ -27,6 +27,12 @@ def make_vec(name: str, num_envs: int, device: str = "cpu", seed=None, backend: 
         return make(name, num_envs, device=device, seed=seed, **options)
     if backend != "mujoco":
         raise ValueError(f"backend must be 'mujoco' or 'mjx', got {backend!r}")
+    from shoulder_bench.tasks import is_3dof
+
+    if is_3dof(name):  # the full shoulder's tasks (shoulder_bench.tasks.vec_env3)
+        from shoulder_bench.tasks.vec_env3 import VecEnv3
+
+        return VecEnv3(name, num_envs, device=device, seed=seed, **options)
     from shoulder_bench.tasks.vec_env import VecEnv
 
     return VecEnv(name, num_envs, device=device, seed=seed, **options)

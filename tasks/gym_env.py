@@ -22,6 +22,21 @@ def observation_space(n: int) -> spaces.Box:
     return spaces.Box(np.array(low, np.float32), np.array(high, np.float32), dtype=np.float32)
 
 
+def observation_space_3dof(n: int) -> spaces.Box:
+    """The 3-DOF tasks' (`tasks.track3d`): the three coordinates within their joint ranges plus the crash margin, the
+    targets within the tables' pose space, activations in [0, 1]; rates unbounded."""
+    from shoulder_bench import full_arm
+    from shoulder_bench.tasks.track3d import VALID_MARGIN_DEG as MARGIN
+
+    m = full_arm.compile_full()
+    joint = np.degrees(m.jnt_range[[m.joint(c).id for c in full_arm.COORDINATES]])
+    pose = np.array([full_arm.POSE_RANGE_DEG[c] for c in full_arm.COORDINATES])
+    inf = np.full(3, np.inf)
+    low = np.concatenate([joint[:, 0] - MARGIN, -inf, pose[:, 0], -inf, np.zeros(n)])
+    high = np.concatenate([joint[:, 1] + MARGIN, inf, pose[:, 1], inf, np.ones(n)])
+    return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+
+
 def action_space(n: int, discrete: bool) -> spaces.Space:
     if discrete:
         return spaces.Discrete(protocol.LEVELS) if n == 1 else spaces.MultiDiscrete([protocol.LEVELS] * n)
@@ -51,7 +66,8 @@ class ShoulderEnv(gym.Env):
         self.env = load(name, **options)
         self.task = self.env.task
         n = len(self.task.muscles)
-        self.observation_space = observation_space(n)
+        self.dofs = getattr(self.task, "dofs", 1)
+        self.observation_space = observation_space_3dof(n) if self.dofs == 3 else observation_space(n)
         self.action_space = action_space(n, self.task.discrete)
         self.render_mode = render_mode
         self._needs_reset = True
@@ -63,6 +79,10 @@ class ShoulderEnv(gym.Env):
         """The true state; with the physiology options also `excitations` (activation_dynamics), `fatigue` ((n, 3)
         M_A, M_R, M_F) and `randomization` (the episode's draw: strength (n,), mass_scale, load_kg)."""
         physics, task = self.env.physics, self.task
+        if self.dofs == 3:
+            return {"angle_deg": physics.coordinates_deg(), "target_deg": task.target.angle_deg[
+                min(task.frame, task.target.frames)].copy(), "error_deg": task.error_deg(physics),
+                "activations": physics.activations(task.muscles).copy(), "crashed": bool(physics.failed())}
         info = {"angle_deg": physics.angle_deg(), "target_deg": task.target_deg(),
                 "activations": task.activations_now(physics), "crashed": bool(physics.failed())}
         if task.activation_dynamics:
@@ -99,10 +119,12 @@ class ShoulderEnv(gym.Env):
 
 
 def register_all() -> None:
-    from shoulder_bench.tasks import TASKS
+    from shoulder_bench.tasks import TASKS, TASKS_3DOF
 
-    for name in TASKS:
+    for name in (*TASKS, *TASKS_3DOF):
         env_id = f"ShoulderBench/{name}-v0"
-        if env_id not in gym.registry:
+        if env_id not in gym.registry:  # the batched vector entry point is the 1-DOF tasks' (gym_vector)
+            vector = {"vector_entry_point": "shoulder_bench.tasks.gym_vector:ShoulderVectorEnv"} if name in TASKS \
+                else {}
             gym.register(env_id, entry_point="shoulder_bench.tasks.gym_env:ShoulderEnv", kwargs={"name": name},
-                         vector_entry_point="shoulder_bench.tasks.gym_vector:ShoulderVectorEnv")
+                         **vector)

@@ -173,6 +173,10 @@ class MjxVecEnv(_RslVecEnv):
         return np.asarray(self.last["target_deg"])
 
     @property
+    def last_error_deg(self) -> np.ndarray:
+        return np.abs(self.last_angle_deg - self.last_target_deg)
+
+    @property
     def last_crashed(self) -> np.ndarray:
         return np.asarray(self.last["crashed"])
 

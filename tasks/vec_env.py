@@ -233,6 +233,7 @@ class VecEnv(_RslVecEnv):
         reward = np.where(crashed, -protocol.CRASH_ERROR_DEG * left, reward)
         self.last_reward = reward  # float64; the returned tensor is a float32 cast
         self.last_angle_deg, self.last_target_deg, self.last_crashed = angle, target_now, crashed
+        self.last_error_deg = np.abs(angle - target_now)  # the tracking error (evaluate's)
         self.last_activation = self.act.copy()  # in force during this frame (before any auto-reset)
         self.last_excitation, self.last_fatigue = self.excitation.copy(), self.fatigue_state.copy()
         self.last_draws = (self.draw_strength.copy(), self.draw_mass.copy(), self.draw_load.copy())

@@ -25,13 +25,13 @@ def algo_module(algo: str):
 
 def check_task(task: str, algo: str) -> None:
     """ValueError unless `algo` can learn `task` (PPO: continuous; DQN: discrete, one muscle; BDQ: discrete)."""
-    from shoulder_bench.tasks import TASKS, check_name
+    from shoulder_bench.tasks import list_tasks, spec
 
-    muscles, discrete, _ = TASKS[check_name(task)]
+    muscles, discrete = spec(task)
     want = {"ppo": "a continuous task", "dqn": "a discrete single-muscle task", "bdq": "a discrete task"}[algo]
-    ok = {"ppo": not discrete, "dqn": discrete and len(muscles) == 1, "bdq": discrete}[algo]
-    if not ok:
-        valid = [n for n, (m, d, _) in TASKS.items() if {"ppo": not d, "dqn": d and len(m) == 1, "bdq": d}[algo]]
+    fits = {"ppo": lambda m, d: not d, "dqn": lambda m, d: d and len(m) == 1, "bdq": lambda m, d: d}[algo]
+    if not fits(muscles, discrete):
+        valid = [n for n in list_tasks() if fits(*spec(n))]
         raise ValueError(f"--algo {algo} needs {want}; {task} is not. Valid: {', '.join(valid)}")
 
 

@@ -29,7 +29,10 @@ def _run(args) -> int:
     checked_dir(args.out, "--out")  # before the minutes of evaluation
     load_suites(args.suite)  # every suite named and checksummed before any evaluation
     surgery = load_surgery(args.surgery)
-    paths = write(collect(args.runs, args.pretrained, progress=True, suites=args.suite), args.out, surgery)
+    from shoulder_bench.eval import board3
+
+    rows = collect(args.runs, args.pretrained, progress=True, suites=args.suite)
+    paths = write(rows, args.out, surgery, full=board3.collect(args.runs, progress=True))
     print(paths["md"].read_text())
     print("\n".join(str(p) for p in paths.values()))
     return 0

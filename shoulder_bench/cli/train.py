@@ -90,20 +90,29 @@ def _train(args) -> int:
 
 def _eval(args) -> int:
     from shoulder_bench.eval.evaluate import evaluate, inference_latency_ms, policy_for, trajectories_for
-    from shoulder_bench.tasks import TASKS, check_options
+    from shoulder_bench.tasks import check_options, is_3dof, spec
 
-    extra = check_options(**options_of(args))  # bad options and files fail before the policy loads
+    three = args.task is not None and is_3dof(args.task)
+    extra = check_options(*([args.task] if three else []), **options_of(args))  # fail before the policy loads
     from shoulder_bench.eval.suites import load_suite, options_for, suite_options
 
     if args.suite is not None and args.trajectories is not None:
         raise ValueError("give --suite or --trajectories, not both")
-    suite = None if args.trajectories is not None else args.suite or "paper"
-    if suite is None:
+    suite = None if args.trajectories is not None or three else args.suite or "paper"
+    if three:
+        trajs, label = None, args.trajectories or "test"
+    elif suite is None:
         trajs, label = trajectories_for(args.trajectories), args.trajectories
     else:
         options_for(suite, extra, who="--option")  # a conflict with the suite's options fails before any work
         trajs, label = load_suite(suite), f"suite {suite}"
     policy, meta, task = policy_for(args.policy, args.task, options=extra)
+    if is_3dof(task):  # the 3-DOF test set, an ADL profile or a 3-DOF CSV; no suites (yet)
+        if args.suite is not None:
+            raise ValueError(f"--suite: the suites are the 1-DOF tasks'; {task} takes --trajectories (test, an ADL "
+                             "name or a 3-DOF CSV)")
+        suite, label = None, args.trajectories or "test"
+        trajs = trajectories_for(label, task=task)
     options = dict(meta.get("options") or {}) | extra
     if suite is not None:  # the suite's task options on top of the policy's own (eval.suites.options_for)
         options = options_for(suite, options, who=f"policy {args.policy} (trained with it)")
@@ -111,7 +120,7 @@ def _eval(args) -> int:
     m = evaluate(policy, task, trajs, muscle_model=meta.get("muscle_model"), options=options)
     for i, (mae, rmse, crashed) in enumerate(zip(*m["per_trajectory"].values())):
         print(f"trajectory {i:3d}: MAE {mae:6.2f} deg  RMSE {rmse:6.2f} deg{'  CRASHED' if crashed else ''}")
-    m["latency_ms"] = inference_latency_ms(policy, 4 + len(TASKS[task][0]))
+    m["latency_ms"] = inference_latency_ms(policy, (12 if is_3dof(task) else 4) + len(spec(task)[0]))
     print(f"overall on {m['n_trajectories']} trajectories ({label}"
           f"{''.join(f', {k}={v}' for k, v in extra.items())}): MAE {m['mae_deg']:.2f} deg, "
           f"RMSE {m['rmse_deg']:.2f} deg, crashes {m['crashes']}; inference {m['latency_ms']:.3f} ms per step "

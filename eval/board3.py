@@ -1,0 +1,111 @@
+"""The leaderboard's section for the full shoulder's 3-DOF tasks (issue 12 §4): one row per (task, algorithm) over
+its seeds, and the reference controller, each evaluated now on the fixed 3-DOF test set.
+
+Columns: the humerus orientation error (MAE with a 95 % bootstrap interval over seeds, RMSE), the error of each
+coordinate (plane of elevation, elevation, axial rotation; MAE over the frames that did not crash), crashes, frames
+and training wall time to the run's end. The main board (`eval.leaderboard`) keeps the 1-DOF tasks; its measures
+(saw-tooth, combing, suites) are not defined here yet.
+"""
+from __future__ import annotations
+
+import json
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from shoulder_bench.eval import stats
+
+COLUMNS = ("task", "algorithm", "seeds", "orientation MAE (deg) [95 % CI]", "orientation RMSE (deg)",
+           "plane MAE (deg)", "elevation MAE (deg)", "rotation MAE (deg)", "crashes", "frames", "training wall (s)")
+
+
+def run_folders(runs: Path) -> list[Path]:
+    """The finished run folders under `runs` whose task is a 3-DOF one."""
+    from shoulder_bench.tasks import TASKS_3DOF
+
+    out = []
+    for cfg in sorted(Path(runs).rglob("config.json")):
+        folder = cfg.parent
+        if not (folder / "policy.pt").exists():
+            continue
+        try:
+            task = json.loads(cfg.read_text()).get("task")
+        except (OSError, ValueError):
+            continue
+        if task in TASKS_3DOF:
+            out.append(folder)
+    return out
+
+
+def _row(task: str, algo: str, scores: list[dict], metrics: list[dict]) -> dict:
+    mae = [s["mae_deg"] for s in scores]
+    lo, hi = stats.bootstrap_ci(mae) if len(mae) > 1 else (float("nan"), float("nan"))
+    coord = {k: float(np.mean([s["coordinate_mae_deg"][k] for s in scores])) for k in ("plane", "elevation",
+                                                                                         "rotation")}
+    return {"task": task, "algorithm": algo, "seeds": len(scores), "mae": float(np.mean(mae)), "ci": (lo, hi),
+            "rmse": float(np.mean([s["rmse_deg"] for s in scores])), **coord,
+            "crashes": int(sum(s["crashes"] for s in scores)),
+            "frames": [m.get("frames") for m in metrics if m], "wall_s": [m.get("wall_s") for m in metrics if m]}
+
+
+def collect(runs: Path | None, progress: bool = False, test: list | None = None) -> list[dict]:
+    """Rows of the 3-DOF runs under `runs` and of the reference controller on each continuous 3-DOF task a run
+    has (empty without 3-DOF runs); `test`: the trajectories (default the fixed 3-DOF test set; the tests pass
+    fewer)."""
+    from tqdm import tqdm
+
+    from shoulder_bench.eval.evaluate import evaluate
+    from shoulder_bench.eval.reference3 import ReferenceController3
+    from shoulder_bench.tasks import TASKS_3DOF
+    from shoulder_bench.train.policy import load_policy
+    from shoulder_bench.trajectory3 import load_test_set
+
+    folders = run_folders(runs) if runs is not None else []
+    if not folders:
+        return []
+    test = load_test_set() if test is None else test
+    groups: dict[tuple[str, str], tuple[list, list]] = defaultdict(lambda: ([], []))
+    for folder in tqdm(folders, desc="evaluating 3-DOF runs", disable=not progress):
+        cfg = json.loads((folder / "config.json").read_text())
+        policy, _ = load_policy(str(folder / "policy.pt"))
+        score = evaluate(policy, cfg["task"], test, options=cfg.get("options") or None)
+        metrics = json.loads((folder / "metrics.json").read_text()) if (folder / "metrics.json").exists() else {}
+        g = groups[(cfg["task"], cfg["algo"].upper())]
+        g[0].append(score)
+        g[1].append(metrics)
+    rows = [_row(task, algo, *groups[(task, algo)]) for task, algo in sorted(groups)]
+    for task in sorted({t for t, _ in groups if not TASKS_3DOF[t][1]}):  # the continuous tasks' reference
+        score = evaluate(ReferenceController3(task), task, test)
+        rows.append(_row(task, "reference controller", [score], []))
+    return rows
+
+
+def _cells(r: dict) -> list[str]:
+    ci = "" if np.isnan(r["ci"][0]) else f" [{r['ci'][0]:.2f}, {r['ci'][1]:.2f}]"
+    frames = ", ".join(f"{f:,}" for f in r["frames"] if f) or "-"
+    wall = ", ".join(f"{w:.0f}" for w in r["wall_s"] if w) or "-"
+    return [r["task"], r["algorithm"], str(r["seeds"]), f"{r['mae']:.2f}{ci}", f"{r['rmse']:.2f}",
+            f"{r['plane']:.2f}", f"{r['elevation']:.2f}", f"{r['rotation']:.2f}", str(r["crashes"]), frames, wall]
+
+
+NOTE = ("3-DOF rows: evaluated now on the fixed 100-trajectory 3-DOF test set (eval/data/test_set_3dof.csv); the "
+        "orientation error is the angle between the achieved and the target humerus orientation; each coordinate's "
+        "MAE excludes crashed frames; the interval is the 95 % bootstrap over seeds (none for one seed).")
+
+
+def markdown(rows: list[dict]) -> str:
+    if not rows:
+        return ""
+    return ("\n## The full shoulder (3-DOF tasks)\n\n| " + " | ".join(COLUMNS) + " |\n|" + "---|" * len(COLUMNS)
+            + "\n" + "".join("| " + " | ".join(_cells(r)) + " |\n" for r in rows) + "\n" + NOTE + "\n")
+
+
+def html(rows: list[dict]) -> str:
+    import html as h
+
+    if not rows:
+        return ""
+    body = "".join("<tr>" + "".join(f"<td>{h.escape(c)}</td>" for c in _cells(r)) + "</tr>" for r in rows)
+    return (f"<h2>The full shoulder (3-DOF tasks)</h2><table><tr>{''.join(f'<th>{h.escape(c)}</th>' for c in COLUMNS)}"
+            f"</tr>{body}</table><p>{h.escape(NOTE)}</p>")

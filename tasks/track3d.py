@@ -1,0 +1,209 @@
+"""Trajectory tracking in three dimensions with the full shoulder's thirteen muscles (issue 12 §3), as dm_control
+tasks.
+
+The model is `models/shoulder_full_task.xml` (docs/model_full.md) with the FEM tables of `models/muscles_full`
+(`tendon_law.TendonLaw`). The protocol is the paper's, per coordinate: a frame is 0.1 s; the agent sees, for the
+plane of elevation, the elevation and the axial rotation (deg, in that order), the angle and its rate, the target and
+its rate at the next frame, and the thirteen activations; it sends a change of activation per muscle (continuous
+within +-0.01, or one of 21 levels). Reward: the paper's equation (1) with the tracking term the angle between the
+achieved and the target humerus orientation (deg, `full_arm.angular_distance_deg`). Episodes start at rest on the
+target with the holding activations (static optimisation, `statics_full`), or with none (init="zero"). A crash (non-
+finite state, a MuJoCo instability, a coordinate more than VALID_MARGIN_DEG past its joint range) ends the episode
+with the 1-DOF tasks' penalty.
+
+Targets (`trajectory3`): random quintic segments per coordinate (train 10 s, test 20 s, wider ranges), a CSV file
+(time_s, plane_deg, elevation_deg, rotation_deg), an ADL name, or (K, 3) degrees. `workspace="scapular_plane"`:
+the paper's 1-DOF abduction targets (elevation) in the scapular plane (30 deg) at rotation 0, the other two held: the
+abduction protocol with all muscles.
+"""
+from __future__ import annotations
+
+import numpy as np
+from dm_control.mujoco import wrapper
+from dm_control.mujoco.engine import Physics as _Physics
+from dm_control.rl import control
+from dm_control.rl.control import PhysicsError
+from dm_env import specs
+
+from shoulder_bench import full_arm, protocol, statics_full, trajectory, trajectory3
+from shoulder_bench.model import attach_law, install_callbacks
+from shoulder_bench.tasks import options as opt
+from shoulder_bench.tendon_law import TendonLaw
+
+VALID_MARGIN_DEG = 30.0  # as the 1-DOF tasks' (arm.VALID_MARGIN_DEG)
+WORKSPACES = ("3dof", "scapular_plane")
+SCAPULAR_PLANE_DEG = 30.0
+INITS = ("hold", "zero")
+OPTIONS = ("alpha", "omega_max", "init", "workspace", "muscle_model")  # what the 3-DOF tasks accept
+
+
+class Physics3(_Physics):
+    """The full shoulder with named accessors (degrees at this surface)."""
+
+    crashed = False
+    _failed = False
+
+    def _adr(self):
+        adr = self.__dict__.get("_adr3")
+        if adr is None:
+            m = self.model
+            q = np.array([m.jnt_qposadr[m.name2id(c, "joint")] for c in full_arm.COORDINATES])
+            v = np.array([m.jnt_dofadr[m.name2id(c, "joint")] for c in full_arm.COORDINATES])
+            lo = np.degrees(m.jnt_range[[m.name2id(c, "joint") for c in full_arm.COORDINATES], 0]) - VALID_MARGIN_DEG
+            hi = np.degrees(m.jnt_range[[m.name2id(c, "joint") for c in full_arm.COORDINATES], 1]) + VALID_MARGIN_DEG
+            adr = self.__dict__["_adr3"] = (q, v, lo, hi)
+        return adr
+
+    def coordinates_deg(self) -> np.ndarray:
+        return np.degrees(self.data.qpos[self._adr()[0]])
+
+    def velocities_deg(self) -> np.ndarray:
+        return np.degrees(self.data.qvel[self._adr()[1]])
+
+    def set_activations(self, muscles, values) -> None:
+        maps = self.__dict__.setdefault("_ctrl_maps", {})
+        key = tuple(muscles)
+        if key not in maps:
+            pairs = [(self.model.name2id(a, "actuator"), k) for k, m in enumerate(key) for a in full_arm.ACTUATORS[m]]
+            maps[key] = (np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs]))
+        ids, src = maps[key]
+        self.data.ctrl[ids] = np.asarray(values, dtype=float)[src]
+
+    def activations(self, muscles) -> np.ndarray:
+        return self.data.ctrl[[self.model.name2id(full_arm.ACTUATORS[m][0], "actuator") for m in muscles]]
+
+    def step(self, nstep: int = 1) -> None:
+        try:
+            super().step(nstep)
+        except PhysicsError:
+            self.crashed = True
+
+    def failed(self) -> bool:
+        return self._failed
+
+    def check_failure(self) -> bool:
+        q, v, lo, hi = self._adr()
+        finite = bool(np.isfinite(self.data.qpos).all() and np.isfinite(self.data.qvel).all())
+        angles = self.coordinates_deg()
+        self._failed = bool(self.crashed or not finite or np.any(angles < lo) or np.any(angles > hi))
+        return self._failed
+
+
+class Track3D(control.Task):
+    """Track a 3-DOF target with the full shoulder's muscles. Bad options raise ValueError naming the option."""
+
+    dofs = 3
+
+    def __init__(self, muscles=full_arm.MUSCLES, discrete=False, split="train", trajectory_=None,
+                 alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", workspace="3dof",
+                 random=None, **unknown):
+        super().__init__()
+        if unknown:
+            raise ValueError(f"option(s) {sorted(unknown)} are not offered on the 3-DOF tasks (yet); they accept "
+                             f"{', '.join(OPTIONS)}")
+        self.muscles = tuple(muscles)
+        self.discrete = bool(discrete)
+        self.split = opt.choice("split", split, tuple(trajectory3.SPLITS))
+        self.alpha = opt.number("alpha", alpha, 0.0, protocol.MAX_ALPHA)
+        self.omega_max = opt.number("omega_max", omega_max, 0.0)
+        self.init = opt.choice("init", init, INITS)
+        self.workspace = opt.choice("workspace", workspace, WORKSPACES)
+        self.fixed = trajectory_
+        self.rng = np.random.default_rng(opt.seed(random))
+        self.target: trajectory3.Trajectory3 | None = None
+        self.frame = 0
+        self.sent = np.zeros(len(self.muscles))
+        self.statics: statics_full.Statics | None = None
+        self.pose: full_arm.Pose | None = None
+
+    def reseed(self, seed) -> None:
+        self.rng = np.random.default_rng(opt.seed(seed))
+
+    def draw_target(self, rng: np.random.Generator | None = None) -> trajectory3.Trajectory3:
+        """The next episode's target: the fixed one, or drawn from `rng` (default the task's own)."""
+        if self.fixed is not None:
+            return self.fixed
+        rng = self.rng if rng is None else rng
+        if self.workspace == "scapular_plane":
+            elevation = trajectory.random_trajectory(rng, self.split).angle_deg
+            angle = np.stack([np.full_like(elevation, SCAPULAR_PLANE_DEG), elevation, np.zeros_like(elevation)], 1)
+            return trajectory3.Trajectory3(angle, np.gradient(angle, protocol.FRAME_S, axis=0), name=self.split)
+        return trajectory3.random_trajectory(rng, self.split)
+
+    # --- dm_control Task API -------------------------------------------------------------------------------------
+    def action_spec(self, physics):
+        n = len(self.muscles)
+        if self.discrete:
+            return specs.BoundedArray((n,), np.int64, 0, protocol.LEVELS - 1, name="levels")
+        return specs.BoundedArray((n,), np.float64, -protocol.ACTION_LIMIT, protocol.ACTION_LIMIT,
+                                  name="activation_change")
+
+    def initialize_episode(self, physics):
+        if self.pose is None:
+            self.pose = full_arm.Pose(physics.model.ptr)
+            self.statics = statics_full.Statics(physics.law, self.pose)
+        self.target = self.draw_target()
+        self.frame = 0
+        self.sent = np.zeros(len(self.muscles))
+        physics.crashed = physics._failed = False
+        physics.data.qpos[:] = self.pose.qpos(self.target.angle_deg[0])[0]
+        physics.data.qvel[:] = 0.0
+        physics.data.ctrl[:] = 0.0
+        if self.init == "hold":
+            physics.set_activations(self.muscles, self.statics.holding(self.target.angle_deg[0])[0])
+
+    def before_step(self, action, physics):
+        applied, sent = protocol.to_delta(action, len(self.muscles), self.discrete)
+        self.sent = sent[0]
+        physics.set_activations(self.muscles, np.clip(physics.activations(self.muscles) + applied[0], 0.0, 1.0))
+
+    def after_step(self, physics):
+        self.frame += 1
+        physics.check_failure()
+
+    def get_observation(self, physics):
+        k = min(self.frame + 1, len(self.target.angle_deg) - 1)
+        return {"angle": physics.coordinates_deg(), "angular_velocity": physics.velocities_deg(),
+                "target_angle": self.target.angle_deg[k].copy(),
+                "target_velocity": self.target.velocity_deg_s[k].copy(),
+                "activations": physics.activations(self.muscles).copy()}
+
+    def error_deg(self, physics) -> float:
+        """The angle between the achieved and the target humerus orientation now (deg)."""
+        target = self.pose.qpos(self.target.angle_deg[min(self.frame, self.target.frames)])
+        now = physics.data.qpos.copy()[None]
+        return float(full_arm.angular_distance_deg(self.pose.orientation(now), self.pose.orientation(target))[0])
+
+    def get_reward(self, physics):
+        if physics.failed():
+            return -protocol.CRASH_ERROR_DEG * (self.target.frames - self.frame + 1)
+        r = protocol.reward(self.error_deg(physics), 0.0, self.sent[None, :], self.alpha, self.omega_max, False)
+        return float(r[0])
+
+    def get_termination(self, physics):
+        if physics.failed():
+            return 0.0
+        if self.frame >= self.target.frames:
+            return 1.0
+        return None
+
+
+def make_physics(muscle_model: str = "fem") -> Physics3:
+    law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS)
+    model = full_arm.compile_full()
+    attach_law(model, law)
+    install_callbacks()
+    physics = Physics3.from_model(wrapper.MjModel(model))
+    physics.law = law
+    return physics
+
+
+def make_env(muscles, discrete=False, split="train", seed=None, trajectory=None, muscle_model="fem",
+             **options) -> control.Environment:
+    """A dm_control Environment of a 3-DOF task; options are checked before the model is built."""
+    if muscle_model != "fem":
+        raise ValueError(f"muscle_model {muscle_model!r}: the full shoulder has FEM tables only ('fem')")
+    task = Track3D(muscles, discrete=discrete, split=split, trajectory_=trajectory3.as_trajectory(trajectory),
+                   random=seed, **options)
+    return control.Environment(make_physics(muscle_model), task, time_limit=float("inf"),
+                               control_timestep=protocol.FRAME_S)

@@ -1,0 +1,175 @@
+"""The full shoulder's 3-DOF tasks (issue 12 §3): by name through dm_control, gymnasium and the batched env; the
+targets (random, CSV, ADL, test set); the holding start; the bad-input rules."""
+from __future__ import annotations
+
+import unittest
+
+import numpy as np
+import pytest
+import torch
+from dm_env import test_utils
+
+import shoulder_bench
+from shoulder_bench import full_arm, protocol, trajectory3
+from shoulder_bench.tasks import TASKS_3DOF, check_options, fixed_test_set, list_tasks, spec
+
+NAMES = tuple(TASKS_3DOF)
+
+
+def test_tasks_are_listed_and_described():
+    assert set(NAMES) <= set(list_tasks())
+    assert spec("track_3dof") == (full_arm.MUSCLES, False) and spec("track_3dof_discrete")[1]
+    assert len(full_arm.MUSCLES) >= 12
+    with pytest.raises(KeyError, match="Did you mean 'track_3dof'"):
+        shoulder_bench.load("track_3dfo")
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_dm_env_conformance(name):
+    cls = type(f"Test_{name}", (test_utils.EnvironmentTestMixin, unittest.TestCase),
+               {"make_object_under_test": lambda self: shoulder_bench.load(name, split="test", seed=0)})
+    result = unittest.TextTestRunner(verbosity=0, stream=open("/dev/null", "w")).run(
+        unittest.defaultTestLoader.loadTestsFromTestCase(cls))
+    assert result.wasSuccessful(), [tb.splitlines()[-1] for _, tb in result.failures + result.errors]
+
+
+@pytest.mark.parametrize("name", ["track_3dof", "track_3dof_discrete"])
+def test_gymnasium_check_env(name):
+    import gymnasium as gym
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make(f"ShoulderBench/{name}-v0")
+    check_env(env.unwrapped, skip_render_check=True)
+    obs, info = env.reset(seed=3)
+    assert obs.shape == (12 + len(full_arm.MUSCLES),) and info["error_deg"] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_batched_env_follows_the_single_env():
+    env = shoulder_bench.load("track_3dof", split="test", seed=11)
+    ts = env.reset()
+    venv = shoulder_bench.make_vec("track_3dof", 2, seed=11, split="test")
+    try:
+        np.testing.assert_allclose(venv.get_observations()["policy"].numpy()[0], protocol.flatten(ts.observation),
+                                   atol=1e-5)
+        rng = np.random.default_rng(0)
+        for _ in range(30):
+            a = rng.uniform(-0.012, 0.012, (2, len(full_arm.MUSCLES)))
+            ts = env.step(a[0])
+            obs, reward, done, _ = venv.step(torch.as_tensor(a))
+            np.testing.assert_allclose(obs["policy"].numpy()[0], protocol.flatten(ts.observation), atol=1e-4)
+            assert reward[0].item() == pytest.approx(ts.reward, abs=1e-3)
+            assert not done.any()
+    finally:
+        venv.close()
+
+
+def test_hold_start_keeps_the_arm_at_rest_and_reward_is_the_orientation_error():
+    target = np.tile([50.0, 60.0, 10.0], (21, 1))
+    env = shoulder_bench.load("track_3dof", trajectory=target)
+    env.reset()
+    for _ in range(20):
+        ts = env.step(np.zeros(len(full_arm.MUSCLES)))
+    assert np.abs(env.physics.coordinates_deg() - target[0]).max() < 0.5
+    assert -ts.reward == pytest.approx(env.task.error_deg(env.physics), rel=1e-9)
+    assert ts.last() and ts.discount == 1.0  # the end of the target is a time limit
+
+
+def test_scapular_plane_task_keeps_plane_and_rotation():
+    env = shoulder_bench.load("elevate_scapular_plane_12m", seed=2)
+    ts = env.reset()
+    assert ts.observation["target_angle"][0] == 30.0 and ts.observation["target_angle"][2] == 0.0
+    assert 30.0 <= ts.observation["target_angle"][1] <= 90.0
+
+
+def test_orientation_error_is_the_rotation_angle():
+    pose = full_arm.Pose()
+    a = pose.orientation(pose.qpos([[40, 60, 0]]))
+    b = pose.orientation(pose.qpos([[40, 60, 25]]))  # 25 deg of axial rotation
+    assert full_arm.angular_distance_deg(a, a)[0] == pytest.approx(0.0, abs=1e-5)
+    assert full_arm.angular_distance_deg(a, b)[0] == pytest.approx(25.0, abs=1e-6)
+
+
+def test_bad_options_and_actions_are_clear_errors():
+    with pytest.raises(ValueError, match="not offered on the 3-DOF tasks"):
+        shoulder_bench.load("track_3dof", delay_frames=1)
+    with pytest.raises(ValueError, match="not offered on the 3-DOF tasks"):
+        check_options("track_3dof", condition="ssp_tear")
+    with pytest.raises(ValueError, match="workspace"):
+        shoulder_bench.load("track_3dof", workspace="moon")
+    with pytest.raises(ValueError, match="FEM tables only"):
+        shoulder_bench.load("track_3dof", muscle_model="hill")
+    env = shoulder_bench.load("track_3dof", seed=0)
+    env.reset()
+    with pytest.raises(ValueError, match="shape"):
+        env.step(np.zeros(4))
+    with pytest.raises(ValueError, match="not finite"):
+        env.step(np.full(len(full_arm.MUSCLES), np.nan))
+
+
+def test_random_targets_stay_in_their_ranges():
+    rngs = [np.random.default_rng(k) for k in range(20)]
+    for split, cfg in trajectory3.SPLITS.items():
+        angle, velocity = trajectory3.random_targets(rngs, split)
+        assert angle.shape == (20, int(cfg["duration_s"] / 0.1) + 1, 3)
+        for k, (lo, hi) in enumerate(cfg["range_deg"]):
+            assert lo - 1e-9 <= angle[..., k].min() and angle[..., k].max() <= hi + 1e-9
+        assert np.abs(velocity[:, 0]).max() < 1.0  # rest-to-rest segments
+
+
+def test_csv_round_trip_and_errors(tmp_path):
+    tr = trajectory3.reach_back_of_head()
+    path = tmp_path / "t.csv"
+    trajectory3.write_csv(path, [tr])
+    back = trajectory3.load_csv(path)[0]
+    np.testing.assert_allclose(back.angle_deg, tr.angle_deg, atol=1e-6)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time_s,plane_deg,elevation_deg\n0,10,20\n")
+    with pytest.raises(ValueError, match="missing column"):
+        trajectory3.load_csv(bad)
+    bad.write_text("time_s,plane_deg,elevation_deg,rotation_deg\n0,10,20,0\n0.5,10,170,0\n")
+    with pytest.raises(ValueError, match="row 3: elevation_deg 170"):
+        trajectory3.load_csv(bad)
+    bad.write_text("time_s,plane_deg,elevation_deg,rotation_deg\n0,30,20,0\n0,30,25,0\n")
+    with pytest.raises(ValueError, match="does not increase"):
+        trajectory3.load_csv(bad)
+    env = shoulder_bench.load("track_3dof", trajectory=str(path))
+    assert env.reset().observation["target_angle"] == pytest.approx(tr.angle_deg[1])
+
+
+def test_adl_profiles_are_synthetic_and_in_the_pose_space():
+    for name, make in trajectory3.ADL.items():
+        tr = make()
+        assert "synthetic" in tr.name and tr.frames > 50
+        trajectory3.check_in_pose_space(tr.angle_deg, name)
+        assert shoulder_bench.load("track_3dof", trajectory=name).reset().observation["angle"].shape == (3,)
+
+
+def test_test_set_is_checked_and_fixed():
+    test = fixed_test_set("track_3dof")
+    assert len(test) == trajectory3.TEST_SET_SIZE and all(t.frames == 200 for t in test)
+    again = trajectory3.make_test_set()
+    np.testing.assert_allclose(test[7].angle_deg, again[7].angle_deg, atol=1e-6)
+
+
+def test_holding_activations_hold_the_workspace():
+    from shoulder_bench.statics_full import Statics
+    from shoulder_bench.tendon_law import TendonLaw
+
+    st = Statics(TendonLaw.load("fem", groups=full_arm.ACTUATORS))
+    for pose in ([30, 30, -20], [70, 90, 30], [50, 60, 0]):
+        a, residual = st.holding(pose)
+        assert residual < 1e-3 and np.all((a >= 0) & (a <= 1))
+    assert st.gravity([50, 90, 0])[1] > 2.0  # gravity pulls the raised arm down: muscles must elevate
+
+
+@pytest.mark.slow
+def test_ppo_trains_and_evaluates_on_the_3dof_test_set(tmp_path):
+    from shoulder_bench.eval import board3
+    from shoulder_bench.eval.experiment import train
+
+    metrics = train("track_3dof", "ppo", frames=1536, seed=0, out=tmp_path / "track_3dof/ppo/0", eval_every=10 ** 9)
+    assert metrics["n_trajectories"] == 100 and np.isfinite(metrics["mae_deg"])
+    rows = board3.collect(tmp_path, test=trajectory3.load_test_set()[:2])
+    assert [r["algorithm"] for r in rows] == ["PPO", "reference controller"]
+    assert all(np.isfinite(r[k]) for r in rows for k in ("mae", "plane", "elevation", "rotation"))
+    assert "| track_3dof | PPO | 1 |" in board3.markdown(rows) and "<table>" in board3.html(rows)
