@@ -1,6 +1,7 @@
 """`shoulder-bench bench`: throughput measured side by side in one run (the machines are shared and noisy).
 
-- batched: `make_vec("abduction_4m", N)` frames/s (a frame = 0.1 s simulated) with random actions and auto-resets,
+- batched: `make_vec(TASK, N)` (`--task`; default abduction_4m, track_3dof: the full shoulder) frames/s (a frame =
+  0.1 s simulated) with random actions and auto-resets,
   over a window of one training episode (100 frames), so that every copy ends its episode and is reset once inside
   it (the resets are counted and printed);
 - bare MuJoCo: the same compiled model with fixed-gain actuators and no callback, stepped by `mujoco.rollout` with the
@@ -37,18 +38,21 @@ def batched_rate(venv, frames: int, gen: torch.Generator) -> tuple[float, int]:
     return n * frames / (time.perf_counter() - t), resets
 
 
-def bare_rate(n: int, frames: int, nthread: int = 2) -> tuple[float, float]:
-    """Frames/s of plain MuJoCo on the same model (fixed gains, no callback), and its physics step."""
+def bare_rate(n: int, frames: int, nthread: int = 2, task: str = TASK) -> tuple[float, float]:
+    """Frames/s of plain MuJoCo on the task's model (fixed gains, no callback), and its physics step."""
     check_counts(num_envs=n, frames=frames, nthread=nthread)
+    from shoulder_bench import full_arm
     from shoulder_bench.arm import arm, compile_arm
+    from shoulder_bench.tasks import is_3dof
 
-    m = compile_arm()  # the tasks' model (v2 locked arm, couplings hardened)
+    three = is_3dof(task)  # the full shoulder's model (3 DOF, 15 tendons, 10 ms steps), else the v2 locked arm
+    m = full_arm.compile_full() if three else compile_arm()
     m.actuator_gaintype[:] = mujoco.mjtGain.mjGAIN_FIXED
     m.actuator_gainprm[:, 0] = 1.0
     m.actuator_biastype[:] = mujoco.mjtBias.mjBIAS_NONE
     spf = max(1, int(round(0.1 / m.opt.timestep)))
     d = mujoco.MjData(m)
-    d.qpos[:] = arm().qpos(np.radians(45.0))[0]
+    d.qpos[:] = full_arm.Pose(m).qpos([45.0, 60.0, 0.0])[0] if three else arm().qpos(np.radians(45.0))[0]
     mujoco.mj_forward(m, d)
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     s0 = np.zeros(mujoco.mj_stateSize(m, spec))
@@ -64,12 +68,12 @@ def bare_rate(n: int, frames: int, nthread: int = 2) -> tuple[float, float]:
     return n * frames / dt, float(m.opt.timestep)
 
 
-def gym_rate(seconds: float) -> float:
+def gym_rate(seconds: float, task: str = TASK) -> float:
     import gymnasium as gym
 
     import shoulder_bench  # noqa: F401 (registers the ids)
 
-    env = gym.make(f"ShoulderBench/{TASK}-v0", disable_env_checker=True)
+    env = gym.make(f"ShoulderBench/{task}-v0", disable_env_checker=True)
     env.reset(seed=0)
     env.action_space.seed(0)
     steps, t = 0, time.perf_counter()
@@ -91,30 +95,32 @@ def check_counts(prefix: str = "", **counts) -> None:
 
 def run(args) -> int:
     import shoulder_bench
+    from shoulder_bench.tasks import check_name
 
     check_counts("--", repeats=args.repeats)
+    task = check_name(getattr(args, "task", None) or TASK)
     torch.set_num_threads(2)
     sizes = (16, 64) if args.quick else (64, 256, 1024, 4096)
     repeats = 1 if args.quick else args.repeats
     gen = torch.Generator().manual_seed(0)
     rows = []
     for n in sizes:
-        venv = shoulder_bench.make_vec(TASK, n, seed=0)
+        venv = shoulder_bench.make_vec(task, n, seed=0)
         frames = venv.max_episode_length  # one training episode: every copy is reset once in the window
         ours, bare, resets = [], [], []
         for _ in range(repeats):
             fps, r = batched_rate(venv, frames, gen)
             ours.append(fps)
             resets.append(r)
-            b, step = bare_rate(n, frames)
+            b, step = bare_rate(n, frames, task=task)
             bare.append(b)
         venv.close()
         rows.append({"num_envs": n, "batched_fps": max(ours), "bare_fps": max(bare),
                      "ratio": max(ours) / max(bare), "physics_step_s": step, "window_frames": frames,
                      "resets": min(resets)})
-    sim_rate = max(gym_rate(0.5 if args.quick else 3.0) for _ in range(repeats))
+    sim_rate = max(gym_rate(0.5 if args.quick else 3.0, task) for _ in range(repeats))
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(f"task {TASK}, physics step {rows[0]['physics_step_s'] * 1000:g} ms (RK4), 2 threads, best of {repeats}")
+    print(f"task {task}, physics step {rows[0]['physics_step_s'] * 1000:g} ms (RK4), 2 threads, best of {repeats}")
     print(f"window: {rows[0]['window_frames']} frames (one training episode) each, after 2 warm-up frames, so every "
           f"copy's episode ends and it is auto-reset once inside it (resets: fewest in a repeat)")
     print(f"{'N':>6} {'batched frames/s':>17} {'bare MuJoCo frames/s':>21} {'ratio':>6} {'resets':>7}")
@@ -124,5 +130,5 @@ def run(args) -> int:
     print(f"single gymnasium env: {sim_rate:,.0f} simulated s per wall s")
     print(f"peak memory: {peak_mb:,.0f} MB")
     if args.json:
-        print(json.dumps({"task": TASK, "rows": rows, "gym_sim_s_per_s": sim_rate, "peak_rss_mb": peak_mb}))
+        print(json.dumps({"task": task, "rows": rows, "gym_sim_s_per_s": sim_rate, "peak_rss_mb": peak_mb}))
     return 0

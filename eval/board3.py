@@ -49,9 +49,19 @@ def _row(task: str, algo: str, scores: list[dict], metrics: list[dict]) -> dict:
             "frames": [m.get("frames") for m in metrics if m], "wall_s": [m.get("wall_s") for m in metrics if m]}
 
 
-def collect(runs: Path | None, progress: bool = False, test: list | None = None) -> list[dict]:
-    """Rows of the 3-DOF runs under `runs` and of the reference controller on each continuous 3-DOF task a run
-    has (empty without 3-DOF runs); `test`: the trajectories (default the fixed 3-DOF test set; the tests pass
+def shipped() -> list[Path]:
+    """The shipped 3-DOF agents (train/pretrained/*.pt whose task is a 3-DOF one)."""
+    from shoulder_bench.tasks import TASKS_3DOF
+    from shoulder_bench.train.policy import load_policy, pretrained_dir
+
+    return [p for p in sorted(pretrained_dir().glob("*.pt")) if load_policy(str(p))[1].get("task") in TASKS_3DOF]
+
+
+def collect(runs: Path | None, progress: bool = False, test: list | None = None,
+            pretrained: bool = False) -> list[dict]:
+    """Rows of the 3-DOF runs under `runs` (and, with `pretrained` or without runs, of the shipped 3-DOF agents,
+    as the main board takes the shipped agents) and of the reference controller on each continuous 3-DOF task a
+    row has (empty without any); `test`: the trajectories (default the fixed 3-DOF test set; the tests pass
     fewer)."""
     from tqdm import tqdm
 
@@ -62,7 +72,8 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None)
     from shoulder_bench.trajectory3 import load_test_set
 
     folders = run_folders(runs) if runs is not None else []
-    if not folders:
+    agents = shipped() if pretrained or runs is None else []
+    if not folders and not agents:
         return []
     test = load_test_set() if test is None else test
     groups: dict[tuple[str, str], tuple[list, list]] = defaultdict(lambda: ([], []))
@@ -72,6 +83,14 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None)
         score = evaluate(policy, cfg["task"], test, options=cfg.get("options") or None)
         metrics = json.loads((folder / "metrics.json").read_text()) if (folder / "metrics.json").exists() else {}
         g = groups[(cfg["task"], cfg["algo"].upper())]
+        g[0].append(score)
+        g[1].append(metrics)
+    for path in agents:  # a shipped agent's record (its source run's metrics) lies beside it
+        policy, meta = load_policy(str(path))
+        record = path.with_suffix(".json")
+        metrics = json.loads(record.read_text()) if record.exists() else {}
+        score = evaluate(policy, meta["task"], test, options=meta.get("options") or None)
+        g = groups[(meta["task"], f"{str(meta.get('algo', '')).upper()} (shipped agent {path.stem})")]
         g[0].append(score)
         g[1].append(metrics)
     rows = [_row(task, algo, *groups[(task, algo)]) for task, algo in sorted(groups)]

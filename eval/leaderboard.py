@@ -103,6 +103,8 @@ def _entries(runs: Path | None, pretrained: bool) -> list[dict]:
     if pretrained or runs is None:  # each agent's record (its source run's metrics) lies beside it
         for p in sorted(pretrained_dir().glob("*.pt")):
             policy, meta, _ = policy_for(f"pretrained:{p.stem}")
+            if is_3dof(meta["task"]):  # the 3-DOF agents are in their own section (eval.board3)
+                continue
             record = p.with_suffix(".json")
             out.append({"spec": f"pretrained:{p.stem}", "source": "shipped agent", "policy": policy,
                         "metrics": _read_json(record) if record.exists() else {}, "setting": setting_of(meta)})

@@ -110,7 +110,7 @@ def _controller(policy: str | None, task: str | None, condition: str | None = No
     return _Controller(label, act, meta.get("muscle_model")), task
 
 
-def _colour_scale(peak: float) -> float:
+def colour_scale(peak: float) -> float:
     """Activation shown fully saturated: the smallest of 5 %, 10 %, 20 %, 50 %, 100 % at or above the episode's peak
     (activations are often a few percent; a fixed 0..1 scale would leave every muscle pale)."""
     return next((c for c in (0.05, 0.1, 0.2, 0.5) if peak <= c), 1.0)
@@ -123,7 +123,7 @@ def _hermite(p0, v0, p1, v1, s, h):
             + (s3 - s2) * h * v1)
 
 
-class _Overlay:
+class Overlay:
     def __init__(self, width: int, height: int, title: str, muscles, scale: float):
         from PIL import ImageFont
 
@@ -167,7 +167,7 @@ class _Overlay:
 
 
 # --- writers ------------------------------------------------------------------------------------------------------
-class _Mp4Writer:
+class Mp4Writer:
     def __init__(self, path: Path, fps: int):
         import imageio
 
@@ -181,7 +181,7 @@ class _Mp4Writer:
         self.w.close()
 
 
-class _GifWriter:
+class GifWriter:
     """One shared palette (from a sample of the frames plus the muscle colour ramp, no dithering); after the first
     frame, pixels that did not change are written as the transparent index, so each frame costs little more than
     what moved (the usual GIF optimisation; Pillow does not do it by itself)."""
@@ -218,6 +218,37 @@ class _GifWriter:
                        disposal=1, duration=int(round(1000 / self.fps)), loop=0, optimize=False)
 
 
+def write_video(out: Path, fmt: str, fps: int, n_video: int, frame, progress: bool = False) -> float:
+    """Write `frame(k)` for k < n_video to `out` (mp4 or gif) through a temporary file beside it, renamed when
+    complete (a failure leaves nothing); returns the seconds spent making and appending the frames (the writer's
+    final encoding not included)."""
+    tmp = out.with_name(f".{out.stem}.tmp{os.getpid()}{out.suffix}")
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=n_video, desc="render", unit="frame", leave=False)
+    spent = 0.0
+    try:
+        writer = GifWriter(tmp, fps) if fmt == "gif" else Mp4Writer(tmp, fps)
+        try:
+            for k in range(n_video):
+                t0 = time.perf_counter()
+                writer.append(frame(k))
+                spent += time.perf_counter() - t0
+                if bar is not None:
+                    bar.update()
+        finally:
+            writer.close()
+        os.replace(tmp, out)
+    finally:
+        if bar is not None:
+            bar.close()
+        if tmp.exists():
+            tmp.unlink()
+    return spent
+
+
 # --- the episode --------------------------------------------------------------------------------------------------
 def render_video(out: Path | str, task: str | None = None, policy: str | None = None, trajectory=None,
                  seconds: float | None = None, width: int = 640, height: int = 480, gif: bool = False,
@@ -252,6 +283,19 @@ def render_video(out: Path | str, task: str | None = None, policy: str | None = 
         raise ValueError(f"seconds {seconds}: give a positive length in seconds")
     if task is not None:
         task = _check_task(task)
+    from shoulder_bench.tasks import is_3dof
+
+    if task is None and policy not in (None, "reference"):  # a trained policy runs on its own task
+        from shoulder_bench.eval.evaluate import policy_for
+
+        task = policy_for(policy)[2]
+    if task is not None and is_3dof(task):  # the full shoulder (eval.render3)
+        if condition is not None:
+            raise ValueError(f"--condition: the conditions are the 1-DOF tasks'; {task} has none (yet)")
+        from shoulder_bench.eval.render3 import render_video3
+
+        return render_video3(out, task, policy, trajectory, seconds, width, height, fmt, fps, camera, seed,
+                             progress, multisample)
     from shoulder_bench import conditions
 
     geometry = conditions.geometry(condition)  # an unknown or clashing condition fails here, before any work
@@ -316,52 +360,33 @@ def render_video(out: Path | str, task: str | None = None, policy: str | None = 
         if ts.last():
             break
     t_sim = time.perf_counter() - t0
-    scale = _colour_scale(max((float(a.max()) for a in acts), default=0.0))
+    scale = colour_scale(max((float(a.max()) for a in acts), default=0.0))
 
     title = f"{task} · {condition} · {ctrl.label}" if condition else f"{task} · {ctrl.label}"
-    overlay = _Overlay(width, height, title, muscles, scale)
-    tmp = out.with_name(f".{out.stem}.tmp{os.getpid()}{out.suffix}")
-    bar = None
-    if progress:
-        from tqdm import tqdm
+    overlay = Overlay(width, height, title, muscles, scale)
+    renderer = mujoco.Renderer(model, height=height, width=width)
 
-        bar = tqdm(total=n_video, desc="render", unit="frame", leave=False)
-    t_render = 0.0
+    def frame(k: int) -> np.ndarray:
+        t = k / fps
+        j = min(int(t / h + 1e-9), target.frames - 1)
+        s = t / h - j
+        frozen = len(q) <= j + 1  # past a crash: the arm stays where it last was valid
+        if not frozen:
+            angle, a = _hermite(q[j], v[j], q[j + 1], v[j + 1], s, h), acts[j]
+        else:
+            angle, a = q[-1], acts[-1] if acts else np.zeros(len(muscles))
+        tgt = _hermite(target.angle_deg[j], target.velocity_deg_s[j], target.angle_deg[j + 1],
+                       target.velocity_deg_s[j + 1], s, h)
+        poser.pose(data, angle, np.radians(tgt))
+        model.tendon_rgba[ten_ids] = PALE + np.minimum(a[ten_src] / scale, 1.0)[:, None] * (SATURATED - PALE)
+        renderer.update_scene(data, camera=camera)
+        return overlay.draw(renderer.render(), t, float(np.degrees(angle)), float(tgt), a, crashed and frozen)
+
     wall = time.perf_counter()
     try:
-        renderer = mujoco.Renderer(model, height=height, width=width)
-        writer = _GifWriter(tmp, fps) if fmt == "gif" else _Mp4Writer(tmp, fps)
-        try:
-            for k in range(n_video):
-                t = k / fps
-                j = min(int(t / h + 1e-9), target.frames - 1)
-                s = t / h - j
-                t1 = time.perf_counter()
-                frozen = len(q) <= j + 1  # past a crash: the arm stays where it last was valid
-                if not frozen:
-                    angle, a = _hermite(q[j], v[j], q[j + 1], v[j + 1], s, h), acts[j]
-                else:
-                    angle, a = q[-1], acts[-1] if acts else np.zeros(len(muscles))
-                tgt = _hermite(target.angle_deg[j], target.velocity_deg_s[j], target.angle_deg[j + 1],
-                               target.velocity_deg_s[j + 1], s, h)
-                poser.pose(data, angle, np.radians(tgt))
-                model.tendon_rgba[ten_ids] = PALE + np.minimum(a[ten_src] / scale, 1.0)[:, None] * (SATURATED - PALE)
-                renderer.update_scene(data, camera=camera)
-                frame = overlay.draw(renderer.render(), t, float(np.degrees(angle)), float(tgt), a,
-                                     crashed and frozen)
-                writer.append(frame)
-                t_render += time.perf_counter() - t1
-                if bar is not None:
-                    bar.update()
-        finally:
-            writer.close()
-            renderer.close()
-        os.replace(tmp, out)
+        t_render = write_video(out, fmt, fps, n_video, frame, progress)
     finally:
-        if bar is not None:
-            bar.close()
-        if tmp.exists():
-            tmp.unlink()
+        renderer.close()
     wall = time.perf_counter() - wall + t_sim
     return {"path": str(out), "frames": n_video, "fps": fps, "seconds": n_video / fps, "width": width,
             "height": height, "task": task, "controller": ctrl.label, "crashed": crashed,

@@ -16,7 +16,8 @@ GHOST = "ghost"  # the ghost's mocap body
 MULTISAMPLES = 4  # `multisample=True`: MuJoCo's default offscreen multisampling (smoother edges, about half the speed)
 
 
-def build_render_model(width: int, height: int, multisample: bool = False, geometry: str | None = None):
+def build_render_model(width: int, height: int, multisample: bool = False, geometry: str | None = None,
+                       path=None):
     """The task model of `geometry` (`arm.model_file`: None the intact `arm.MODEL_FILE`, "ld_transfer" the rerouted
     latissimus; scene included) without actuators, plus a translucent ghost humerus: a mocap
     body `GHOST` with a copy of the humerus's geoms, `GHOST_SCALE` larger (`Poser` places it). No offscreen
@@ -25,7 +26,7 @@ def build_render_model(width: int, height: int, multisample: bool = False, geome
 
     from shoulder_bench import arm
 
-    spec = mujoco.MjSpec.from_file(str(arm.model_file(geometry)))
+    spec = mujoco.MjSpec.from_file(str(path or arm.model_file(geometry)))  # path: another task model (3-DOF)
     for act in list(spec.actuators):  # visual only: no user actuators, so the muscle callback never runs
         spec.delete(act)
     spec.visual.global_.offwidth = max(width, spec.visual.global_.offwidth)

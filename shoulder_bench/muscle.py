@@ -96,17 +96,7 @@ class MuscleTable:
         path = Path(path)
         model = path.stem.rsplit("_", 1)[-1]
         fix = f"rebuild it with `{REBUILD.get(model, 'shoulder-bench fem build')}`"
-        if not path.exists():
-            raise FileNotFoundError(f"muscle table {path} is missing; {fix}")
-        try:
-            with NPZ_LOCK, np.load(path, allow_pickle=False) as z:
-                missing = [k for k in REQUIRED_KEYS if k not in z.files]
-                if missing:
-                    raise ValueError(f"lacks {missing}")
-                arrays = {k: np.asarray(z[k], dtype=float) for k in REQUIRED_KEYS if k != "meta"}
-                meta = json.loads(str(z["meta"]))
-        except Exception as exc:  # zip, pickle, JSON or key errors all mean the same thing to a user
-            raise ValueError(f"muscle table {path} is unreadable or corrupt ({exc}); {fix}") from exc
+        arrays, meta = read_table(path, REQUIRED_KEYS, fix)
         table = cls(muscle=meta.get("muscle", path.stem.rsplit("_", 1)[0]), meta=meta, **arrays)
         table._check(path, fix)
         return table
@@ -137,6 +127,23 @@ class MuscleTable:
 
 
 MODEL_NAME = "models/shoulder.xml"
+
+
+def read_table(path: Path, keys: tuple[str, ...], fix: str) -> tuple[dict, dict]:
+    """(float arrays of `keys` but "meta", the parsed meta JSON) of a table file; FileNotFoundError or ValueError
+    naming the file and `fix` (what rebuilds it). The force tables' one reader (v1/v2 and the full shoulder's)."""
+    if not path.exists():
+        raise FileNotFoundError(f"muscle table {path} is missing; {fix}")
+    try:
+        with NPZ_LOCK, np.load(path, allow_pickle=False) as z:
+            missing = [k for k in keys if k not in z.files]
+            if missing:
+                raise ValueError(f"lacks {missing}")
+            arrays = {k: np.asarray(z[k], dtype=float) for k in keys if k != "meta"}
+            meta = json.loads(str(z["meta"]))
+    except Exception as exc:  # zip, pickle, JSON or key errors all mean the same thing to a user
+        raise ValueError(f"muscle table {path} is unreadable or corrupt ({exc}); {fix}") from exc
+    return arrays, meta
 
 
 class ForceLaw:

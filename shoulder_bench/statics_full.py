@@ -82,7 +82,7 @@ class Statics:
         w = np.sqrt(TORQUE_WEIGHT)
         A = np.vstack([w * jac, np.eye(len(a0))])
         b = np.concatenate([w * (torque - tau0 + jac @ a0), np.zeros(len(a0))])
-        return lsq_linear(A, b, bounds=(lower, np.maximum(upper, lower + 1e-12))).x
+        return lsq_linear(A, b, bounds=(lower, np.maximum(upper, lower + 1e-12)), method="bvls").x
 
     def holding(self, pose_deg, start: np.ndarray | None = None) -> tuple[np.ndarray, float]:
         """(activations, largest |residual| N m) that hold `pose_deg` (deg) at rest against gravity."""

@@ -17,7 +17,6 @@ Lengths outside the grid take the edge values.
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,7 +24,7 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from shoulder_bench.muscle import NPZ_LOCK, VMAX_LOPT_PER_S, check_muscle_model, law_cell, law_point
+from shoulder_bench.muscle import VMAX_LOPT_PER_S, check_muscle_model, law_cell, law_point, read_table
 
 REQUIRED_KEYS = ("length_m", "activation", "force_N", "meta")
 REBUILD = "shoulder-bench fem build --full"
@@ -50,17 +49,7 @@ class TendonTable:
         """Read and check a table; errors name the file and the command that rebuilds it."""
         path = Path(path)
         fix = f"rebuild it with `{REBUILD}`"
-        if not path.exists():
-            raise FileNotFoundError(f"muscle table {path} is missing; {fix}")
-        try:
-            with NPZ_LOCK, np.load(path, allow_pickle=False) as z:
-                missing = [k for k in REQUIRED_KEYS if k not in z.files]
-                if missing:
-                    raise ValueError(f"lacks {missing}")
-                arrays = {k: np.asarray(z[k], dtype=float) for k in REQUIRED_KEYS if k != "meta"}
-                meta = json.loads(str(z["meta"]))
-        except Exception as exc:  # zip, JSON or key errors all mean the same thing to a user
-            raise ValueError(f"muscle table {path} is unreadable or corrupt ({exc}); {fix}") from exc
+        arrays, meta = read_table(path, REQUIRED_KEYS, fix)
         table = cls(muscle=meta.get("muscle", path.stem.rsplit("_", 1)[0]), meta=meta, **arrays)
         k, j = len(table.length_m), len(table.activation)
         problems = []

@@ -208,14 +208,20 @@ def make_test_set() -> list[Trajectory]:
     return [random_trajectory(rng, "test") for _ in range(TEST_SET_SIZE)]
 
 
-def load_test_set() -> list[Trajectory]:
-    """The 100 stored test trajectories, after checking the file against its recorded SHA-256."""
-    path = test_set_path()
+def checked(path: Path, module: str) -> Path:
+    """`path` after checking it against its recorded SHA-256 (`<path stem>.sha256` beside it); ValueError naming
+    the `module` that regenerates it otherwise."""
     expected = path.with_suffix(".sha256").read_text().split()[0]
     actual = hashlib.sha256(path.read_bytes()).hexdigest()
     if actual != expected:
         raise ValueError(f"{path} does not match its checksum ({actual} != {expected}); restore it from the repo "
-                         f"or regenerate it with `python -m shoulder_bench.trajectory`")
+                         f"or regenerate it with `python -m {module}`")
+    return path
+
+
+def load_test_set() -> list[Trajectory]:
+    """The 100 stored test trajectories, after checking the file against its recorded SHA-256."""
+    path = checked(test_set_path(), "shoulder_bench.trajectory")
     return [Trajectory(t.angle_deg, t.velocity_deg_s, name=f"test:{k}") for k, t in enumerate(load_csv(path))]
 
 

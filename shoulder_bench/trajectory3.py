@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from shoulder_bench.full_arm import COORDINATE_LABELS, COORDINATES, POSE_RANGE_DEG
-from shoulder_bench.trajectory import FRAME_S, SEGMENT_S, quintic, read_frames
+from shoulder_bench.trajectory import FRAME_S, SEGMENT_S, checked, quintic, read_frames
 
 COLUMNS = ("plane_deg", "elevation_deg", "rotation_deg")
 # (plane, elevation, rotation) ranges; every pose of both boxes (10 deg grid) can be held against gravity by the
@@ -174,18 +174,14 @@ def test_set_path() -> Path:
 
 
 def make_test_set() -> list[Trajectory3]:
+    """The fixed 3-DOF test set, generated from TEST_SET_SEED (what `eval/data/test_set_3dof.csv` stores)."""
     rng = np.random.default_rng(TEST_SET_SEED)
     return [random_trajectory(rng, "test") for _ in range(TEST_SET_SIZE)]
 
 
 def load_test_set() -> list[Trajectory3]:
     """The 100 stored 3-DOF test trajectories, after checking the file against its recorded SHA-256."""
-    path = test_set_path()
-    expected = path.with_suffix(".sha256").read_text().split()[0]
-    actual = hashlib.sha256(path.read_bytes()).hexdigest()
-    if actual != expected:
-        raise ValueError(f"{path} does not match its checksum ({actual} != {expected}); restore it from the repo "
-                         f"or regenerate it with `python -m shoulder_bench.trajectory3`")
+    path = checked(test_set_path(), "shoulder_bench.trajectory3")
     return [Trajectory3(t.angle_deg, t.velocity_deg_s, name=f"test3:{k}") for k, t in enumerate(load_csv(path))]
 
 

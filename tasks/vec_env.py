@@ -32,7 +32,28 @@ def batch_engine() -> str:
 MAX_ABS = 1e10  # MuJoCo's mjMAXVAL: beyond it the single env's MuJoCo would warn (a crash)
 
 
-class VecEnv(_RslVecEnv):
+class Lockstep(_RslVecEnv):
+    """What the batched envs (1-DOF `VecEnv`, 3-DOF `vec_env3.VecEnv3`) share: observations as a TensorDict from
+    `observation_array()`, reset of every copy through `_reset(idx)`, the returns of finished episodes."""
+
+    def _observation(self) -> TensorDict:
+        flat = torch.as_tensor(self.observation_array(), dtype=torch.float32, device=self.device)
+        return TensorDict({"policy": flat, "critic": flat.clone()}, batch_size=[self.num_envs], device=self.device)
+
+    def get_observations(self) -> TensorDict:
+        return self._observation()
+
+    def reset(self) -> TensorDict:
+        self._reset(np.arange(self.num_envs))
+        return self._observation()
+
+    def finished_returns(self) -> list[float]:
+        """Returns of the episodes that ended since the last call."""
+        out, self._finished = self._finished, []
+        return out
+
+
+class VecEnv(Lockstep):
     """`shoulder_bench.make_vec(name, num_envs, device, seed, **options)`; options as for `shoulder_bench.load`, and
     `trajectory` may also be a list with one target per copy (episodes of a copy then repeat its target)."""
 
@@ -189,17 +210,6 @@ class VecEnv(_RslVecEnv):
         obs = protocol.observation(angle, velocity, self.targets[rows, k], self.target_vel[rows, k], act)
         return np.concatenate([obs[key] for key in protocol.OBSERVATION_KEYS], axis=1)
 
-    def _observation(self) -> TensorDict:
-        flat = torch.as_tensor(self.observation_array(), dtype=torch.float32, device=self.device)
-        return TensorDict({"policy": flat, "critic": flat.clone()}, batch_size=[self.num_envs], device=self.device)
-
-    def get_observations(self) -> TensorDict:
-        return self._observation()
-
-    def reset(self) -> TensorDict:
-        self._reset(np.arange(self.num_envs))
-        return self._observation()
-
     # --- stepping ----------------------------------------------------------------------------------------------------
     def step(self, actions) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
         a = actions.detach().cpu().numpy() if torch.is_tensor(actions) else np.asarray(actions)
@@ -309,11 +319,6 @@ class VecEnv(_RslVecEnv):
             self.sim.warmstart[:] = state["warmstart"]
         self.episode_length_buf = state["episode_length_buf"].clone().to(self.device)
         self._finished = list(state["finished"])
-
-    def finished_returns(self) -> list[float]:
-        """Returns of the episodes that ended since the last call."""
-        out, self._finished = self._finished, []
-        return out
 
     def close(self) -> None:
         self.sim.close()

@@ -13,7 +13,6 @@ import mujoco
 import numpy as np
 import torch
 from mujoco import rollout
-from rsl_rl.env import VecEnv as _RslVecEnv
 from tensordict import TensorDict
 
 from shoulder_bench import full_arm, protocol, statics_full, trajectory3
@@ -21,12 +20,13 @@ from shoulder_bench.model import attach_law, install_callbacks
 from shoulder_bench.tasks import TASKS_3DOF, check_name
 from shoulder_bench.tasks import options as options_check
 from shoulder_bench.tasks.track3d import Track3D
+from shoulder_bench.tasks.vec_env import Lockstep
 from shoulder_bench.tendon_law import TendonLaw
 
 START_TIME = 1e3  # every frame's rollout starts at this time, so a MuJoCo reset (time back to 0) shows
 
 
-class VecEnv3(_RslVecEnv):
+class VecEnv3(Lockstep):
     """`shoulder_bench.make_vec(name, num_envs, ...)` for the 3-DOF tasks; `trajectory`: one target for all copies
     or a list with one per copy (a copy's episodes then repeat its target)."""
 
@@ -120,17 +120,6 @@ class VecEnv3(_RslVecEnv):
         return np.concatenate([np.degrees(self.qpos[:, self.qadr]), np.degrees(self.qvel[:, self.dadr]),
                                self.targets[rows, k], self.target_vel[rows, k], self.act], axis=1)
 
-    def _observation(self) -> TensorDict:
-        flat = torch.as_tensor(self.observation_array(), dtype=torch.float32, device=self.device)
-        return TensorDict({"policy": flat, "critic": flat.clone()}, batch_size=[self.num_envs], device=self.device)
-
-    def get_observations(self) -> TensorDict:
-        return self._observation()
-
-    def reset(self) -> TensorDict:
-        self._reset(np.arange(self.num_envs))
-        return self._observation()
-
     def error_deg(self) -> np.ndarray:
         """(N,) the angle between each copy's humerus orientation and its target's now (deg)."""
         rows = np.arange(self.num_envs)
@@ -175,10 +164,6 @@ class VecEnv3(_RslVecEnv):
         obs = self._observation()
         return (obs, torch.as_tensor(reward, dtype=torch.float32, device=self.device),
                 torch.as_tensor(done, device=self.device), extras)
-
-    def finished_returns(self) -> list[float]:
-        out, self._finished = self._finished, []
-        return out
 
     def state_dict(self) -> dict:
         return {"num_envs": self.num_envs, "name": self.name, "rngs": [r.bit_generator.state for r in self.rngs],

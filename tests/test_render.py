@@ -97,7 +97,7 @@ def test_failure_while_rendering_leaves_no_partial_file(tmp_path, monkeypatch):
             raise RuntimeError("boom")
         return frame
 
-    monkeypatch.setattr(render._Overlay, "draw", draw)
+    monkeypatch.setattr(render.Overlay, "draw", draw)
     with pytest.raises(RuntimeError, match="boom"):
         render_video(tmp_path / "x.mp4", seconds=1, width=W, height=H, fps=10)
     assert list(tmp_path.iterdir()) == []

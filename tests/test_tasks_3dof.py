@@ -173,3 +173,25 @@ def test_ppo_trains_and_evaluates_on_the_3dof_test_set(tmp_path):
     assert [r["algorithm"] for r in rows] == ["PPO", "reference controller"]
     assert all(np.isfinite(r[k]) for r in rows for k in ("mae", "plane", "elevation", "rotation"))
     assert "| track_3dof | PPO | 1 |" in board3.markdown(rows) and "<table>" in board3.html(rows)
+
+
+def test_render_a_3dof_episode(tmp_path):
+    from shoulder_bench.eval.render import render_video
+
+    info = render_video(tmp_path / "arm.gif", task="track_3dof", policy="reference", trajectory="lift_to_shelf",
+                        seconds=0.5, width=96, height=64, gif=True)
+    assert (tmp_path / "arm.gif").stat().st_size > 0 and info["frames"] == 10 and info["task"] == "track_3dof"
+    assert info["controller"] == "reference controller" and not info["crashed"]
+    with pytest.raises(ValueError, match="conditions are the 1-DOF tasks'"):
+        render_video(tmp_path / "x.gif", task="track_3dof", gif=True, condition="ssp_tear", seconds=0.5)
+
+
+def test_bench_covers_the_full_shoulder(capsys):
+    import json
+
+    from shoulder_bench.cli import main
+
+    assert main(["bench", "--quick", "--json", "--task", "track_3dof"]) == 0
+    result = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert result["task"] == "track_3dof" and result["rows"][0]["physics_step_s"] == pytest.approx(0.01)
+    assert all(r["batched_fps"] > 0 and r["bare_fps"] > 0 and r["resets"] == r["num_envs"] for r in result["rows"])

@@ -98,6 +98,7 @@ def frames_per_iteration(cfg: DQNConfig) -> int:
 PRESETS = {
     "abduction_ssp_discrete": {},
     "abduction_4m_discrete": {"branching": True, "hidden": (256, 256), "frames": 500_000},
+    "track_3dof_discrete": {"branching": True, "hidden": (256, 256), "frames": 500_000},  # the 4-muscle one, unsearched
 }
 
 

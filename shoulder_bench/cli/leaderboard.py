@@ -32,7 +32,7 @@ def _run(args) -> int:
     from shoulder_bench.eval import board3
 
     rows = collect(args.runs, args.pretrained, progress=True, suites=args.suite)
-    paths = write(rows, args.out, surgery, full=board3.collect(args.runs, progress=True))
+    paths = write(rows, args.out, surgery, full=board3.collect(args.runs, progress=True, pretrained=args.pretrained))
     print(paths["md"].read_text())
     print("\n".join(str(p) for p in paths.values()))
     return 0

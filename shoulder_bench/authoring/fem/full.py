@@ -36,12 +36,11 @@ from tqdm import tqdm
 from shoulder_bench import full_arm
 from shoulder_bench.authoring import mobl_data, tendons
 from shoulder_bench.authoring.fem import output_folder, quantised, rounded
-from shoulder_bench.authoring.fem.build import NOISE_FORCE_N
 from shoulder_bench.authoring.fem.material import Material
 from shoulder_bench.authoring.fem.shells import mesh_sha256
 from shoulder_bench.authoring.fem.solver import NoConvergence
-from shoulder_bench.authoring.fem.v2 import ACTIVATIONS, SETTINGS, solve
-from shoulder_bench.authoring.fem.v2_sheet import RESOLUTION, SheetSpec, build_sheet
+from shoulder_bench.authoring.fem.v2 import ACTIVATIONS, SETTINGS, solve, solve_meta
+from shoulder_bench.authoring.fem.v2_sheet import SheetSpec, build_sheet
 from shoulder_bench.locks import FolderLock
 from shoulder_bench.muscle import replacing
 from shoulder_bench.tendon_law import table_path
@@ -153,26 +152,12 @@ def _build(folder: Path, coarse: bool, quiet: bool, jobs: int, names: tuple, mat
 
 
 def _meta(t, spec, res, digest, material, settings, fem, seconds) -> dict:
-    f = fem["force"]
-    if np.any(f < -NOISE_FORCE_N):
-        raise ValueError(f"{t}: sheet pushes on its tendon ({f.min():.3g} N): not solver noise")
-    its = fem["newton_iterations"]
     return {"model": "fem", "source": "fem", "muscle": t, "parent_muscle": mobl_data.FULL_MUSCLES[t],
             "model_file": "models/shoulder_full_task.xml", "coordinate": "tendon length",
             "law": "v2_sheet: pennated fibre membrane (Blemker fibres, co-rotational background) of axial extent "
                    "L_MT - l_ts in series with a rigid tendon; force = the axial reaction at the insertion edge",
             "pose_space_deg": {c: list(r) for c, r in full_arm.POSE_RANGE_DEG.items()},
-            "parameters": PROVENANCE, "F0_N": spec.f0, "optimal_fibre_length_m": spec.l_opt,
-            "tendon_slack_length_m": spec.l_ts, "pennation_angle_rad": spec.alpha0,
-            "sheet": {"rest_extent_m": spec.rest_extent, "width_m": spec.width,
-                      "thickness_m": spec.thickness(material.fibre.sigma_max), "resolution": list(RESOLUTION[res])},
-            "material": material.as_dict(), "solver": settings.as_dict(),
-            "tolerance": f"max nodal residual < {settings.tol} F0 ({settings.stall_factor * settings.tol} F0 for "
-                         f"{int(fem['stalled_solves'])} stalled solves)",
-            "newton_iterations": {"total": int(its.sum()), "max_per_point": int(its.max())},
-            "clamped_noise_N": float(max(0.0, -f.min())),
-            "fibre_stretch_range": [float(fem["fibre_stretch"][..., 0].min()),
-                                    float(fem["fibre_stretch"][..., 2].max())],
+            "parameters": PROVENANCE, **solve_meta(t, spec, res, material, settings, fem),
             "code_version": CODE_VERSION, "input_hash": digest, "build_seconds": round(seconds, 2)}
 
 

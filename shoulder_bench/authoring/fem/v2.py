@@ -148,29 +148,35 @@ def build(plane_deg: float | None = None, coarse: bool = False, out: Path | None
     return result
 
 
-def _meta(t, spec, plane, res, digest, material, settings, fem, seconds) -> dict:
+def solve_meta(t: str, spec: SheetSpec, res: str, material: Material, settings: SolverSettings, fem: dict) -> dict:
+    """The meta fields of a sheet's table that the v2 and full-shoulder builds share: parameters, sheet, material,
+    solver, convergence; ValueError if the sheet pushes on its tendon beyond solver noise."""
     f = fem["force"]
     if np.any(f < -NOISE_FORCE_N):
         raise ValueError(f"{t}: sheet pushes on its tendon ({f.min():.3g} N): not solver noise")
     its = fem["newton_iterations"]
+    return {"F0_N": spec.f0, "optimal_fibre_length_m": spec.l_opt, "tendon_slack_length_m": spec.l_ts,
+            "pennation_angle_rad": spec.alpha0,
+            "sheet": {"rest_extent_m": spec.rest_extent, "width_m": spec.width,
+                      "thickness_m": spec.thickness(material.fibre.sigma_max),
+                      "width_over_length": spec.width_over_length, "resolution": list(RESOLUTION[res])},
+            "material": material.as_dict(), "solver": settings.as_dict(),
+            "tolerance": f"max nodal residual < {settings.tol} F0 ({settings.stall_factor * settings.tol} F0 for "
+                         f"{int(fem['stalled_solves'])} stalled solves)",
+            "newton_iterations": {"total": int(its.sum()), "max_per_point": int(its.max())},
+            "clamped_noise_N": float(max(0.0, -f.min())),
+            "fibre_stretch_range": [float(fem["fibre_stretch"][..., 0].min()),
+                                    float(fem["fibre_stretch"][..., 2].max())]}
+
+
+def _meta(t, spec, plane, res, digest, material, settings, fem, seconds) -> dict:
     return {"model": "fem", "source": "fem", "muscle": t, "parent_muscle": hill_v2.PARENT_MUSCLE[t],
             "model_file": f"mobl.model_xml(locked_plane_deg={plane:g}, dynamics=True, actuators=True)",
             "plane_deg": float(plane), "joint": arm.JOINT, "girdle": "coupled",
             "law": "v2_sheet: pennated fibre membrane (Blemker fibres, co-rotational background) of axial extent "
                    "L_MT - l_ts in series with a rigid tendon; force = the axial reaction at the insertion edge",
             "moment_arm": "-ten_J S (tendon Jacobian along the coupling slopes), the total coupled arm",
-            "parameters": hill_v2.PROVENANCE, "F0_N": spec.f0, "optimal_fibre_length_m": spec.l_opt,
-            "tendon_slack_length_m": spec.l_ts, "pennation_angle_rad": spec.alpha0,
-            "sheet": {"rest_extent_m": spec.rest_extent, "width_m": spec.width,
-                      "thickness_m": spec.thickness(material.fibre.sigma_max),
-                      "width_over_length": spec.width_over_length, "resolution": list(RESOLUTION[res])},
-            "material": material.as_dict(), "solver": settings.as_dict(), "grid": grid_dict(),
-            "tolerance": f"max nodal residual < {settings.tol} F0 ({settings.stall_factor * settings.tol} F0 for "
-                         f"{int(fem['stalled_solves'])} stalled solves)",
-            "newton_iterations": {"total": int(its.sum()), "max_per_point": int(its.max())},
-            "clamped_noise_N": float(max(0.0, -f.min())),
-            "fibre_stretch_range": [float(fem["fibre_stretch"][..., 0].min()),
-                                    float(fem["fibre_stretch"][..., 2].max())],
+            "parameters": hill_v2.PROVENANCE, **solve_meta(t, spec, res, material, settings, fem), "grid": grid_dict(),
             "code_version": CODE_VERSION, "input_hash": digest, "build_seconds": round(seconds, 2)}
 
 
