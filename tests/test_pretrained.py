@@ -9,7 +9,7 @@ from shoulder_bench.eval.evaluate import evaluate
 from shoulder_bench.tasks import fixed_test_set
 from shoulder_bench.train.policy import load_policy, pretrained_dir
 
-AGENTS = ["ppo_ssp", "dqn_ssp", "ppo_4m", "bdq_4m", "ppo_track_3dof"]
+AGENTS = ["ppo_ssp", "dqn_ssp", "ppo_4m", "bdq_4m", "ppo_track_3dof", "bdq_track_3dof"]
 SUBSET = 10  # trajectories of the fixed test set
 
 
