@@ -1,10 +1,10 @@
-"""The leaderboard's section for the full shoulder's 3-DOF tasks (issue 12 §4): one row per (task, algorithm) over
-its seeds, and the reference controller, each evaluated now on the fixed 3-DOF test set.
+"""The leaderboard's section for the full shoulder's 3-DOF tasks (issue 12 §4): one row per (task, algorithm,
+setting) over its seeds, and the reference controller, each evaluated now on the fixed 3-DOF test set.
 
 Columns: the humerus orientation error (MAE with a 95 % bootstrap interval over seeds, RMSE), the error of each
 coordinate (plane of elevation, elevation, axial rotation; MAE over the frames that did not crash), crashes, frames
-and training wall time to the run's end. The main board (`eval.leaderboard`) keeps the 1-DOF tasks; its measures
-(saw-tooth, combing, suites) are not defined here yet.
+and the run's wall time (its periodic test evaluations included). The main board (`eval.leaderboard`) keeps the
+1-DOF tasks; its measures (saw-tooth, combing, suites) are not defined here yet.
 """
 from __future__ import annotations
 
@@ -17,7 +17,8 @@ import numpy as np
 from shoulder_bench.eval import stats
 
 COLUMNS = ("task", "algorithm", "seeds", "orientation MAE (deg) [95 % CI]", "orientation RMSE (deg)",
-           "plane MAE (deg)", "elevation MAE (deg)", "rotation MAE (deg)", "crashes", "frames", "training wall (s)")
+           "plane MAE (deg)", "elevation MAE (deg)", "rotation MAE (deg)", "crashes", "frames",
+           "run wall (s, evaluations included)")
 
 
 def run_folders(runs: Path) -> list[Path]:
@@ -36,6 +37,16 @@ def run_folders(runs: Path) -> list[Path]:
         if task in TASKS_3DOF:
             out.append(folder)
     return out
+
+
+def _variant(setting: str, settings: list[str]) -> str:
+    """" (key=value, ...)": what sets this setting apart from the others of its task and algorithm; "" if alone."""
+    if len(settings) < 2 or not setting:
+        return ""
+    mine = json.loads(setting)["config"] or {}
+    others = [json.loads(s)["config"] or {} for s in settings if s != setting]
+    keys = sorted(k for k in mine if any(o.get(k) != mine[k] for o in others))
+    return " (" + ", ".join(f"{k}={mine[k]}" for k in keys) + ")" if keys else ""
 
 
 def _row(task: str, algo: str, scores: list[dict], metrics: list[dict]) -> dict:
@@ -82,7 +93,9 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
         policy, _ = load_policy(str(folder / "policy.pt"))
         score = evaluate(policy, cfg["task"], test, options=cfg.get("options") or None)
         metrics = json.loads((folder / "metrics.json").read_text()) if (folder / "metrics.json").exists() else {}
-        g = groups[(cfg["task"], cfg["algo"].upper())]
+        # one row per setting: runs pool only when their algorithm config and options agree (seeds, budgets apart)
+        setting = json.dumps({"config": cfg.get("config"), "options": cfg.get("options")}, sort_keys=True)
+        g = groups[(cfg["task"], cfg["algo"].upper(), setting)]
         g[0].append(score)
         g[1].append(metrics)
     for path in agents:  # a shipped agent's record (its source run's metrics) lies beside it
@@ -90,11 +103,12 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
         record = path.with_suffix(".json")
         metrics = json.loads(record.read_text()) if record.exists() else {}
         score = evaluate(policy, meta["task"], test, options=meta.get("options") or None)
-        g = groups[(meta["task"], f"{str(meta.get('algo', '')).upper()} (shipped agent {path.stem})")]
+        g = groups[(meta["task"], f"{str(meta.get('algo', '')).upper()} (shipped agent {path.stem})", "")]
         g[0].append(score)
         g[1].append(metrics)
-    rows = [_row(task, algo, *groups[(task, algo)]) for task, algo in sorted(groups)]
-    for task in sorted({t for t, _ in groups if not TASKS_3DOF[t][1]}):  # the continuous tasks' reference
+    rows = [_row(task, algo + _variant(setting, [s for t, a, s in groups if (t, a) == (task, algo)]),
+                 *groups[(task, algo, setting)]) for task, algo, setting in sorted(groups)]
+    for task in sorted({t for t, _, _ in groups if not TASKS_3DOF[t][1]}):  # the continuous tasks' reference
         score = evaluate(ReferenceController3(task), task, test)
         rows.append(_row(task, "reference controller", [score], []))
     return rows

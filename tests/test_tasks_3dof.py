@@ -195,3 +195,26 @@ def test_bench_covers_the_full_shoulder(capsys):
     result = json.loads(capsys.readouterr().out.splitlines()[-1])
     assert result["task"] == "track_3dof" and result["rows"][0]["physics_step_s"] == pytest.approx(0.01)
     assert all(r["batched_fps"] > 0 and r["bare_fps"] > 0 and r["resets"] == r["num_envs"] for r in result["rows"])
+
+
+def test_error_features_take_each_coordinates_error():
+    from shoulder_bench.train.ppo import ErrorFeatures
+
+    obs = torch.zeros(2, 12 + 13)
+    obs[:, 0:3] = torch.tensor([40.0, 60.0, 0.0])  # angles
+    obs[:, 6:9] = torch.tensor([45.0, 50.0, 10.0])  # targets
+    obs[:, 9:12] = torch.tensor([10.0, 0.0, -20.0])  # target rates
+    out = ErrorFeatures(3)(obs)
+    assert out.shape == (2, 25 + 6)
+    torch.testing.assert_close(out[0, 25:], torch.tensor([1.0, -2.0, 2.0, 1.0, 0.0, -2.0]))
+    assert ErrorFeatures()(torch.zeros(1, 8)).shape == (1, 10)  # the 1-DOF layout (4 + 4 muscles) as before
+
+
+def test_board_rows_of_different_settings_do_not_pool():
+    import json
+
+    from shoulder_bench.eval.board3 import _variant
+
+    a = json.dumps({"config": {"error_features": True, "lr": 1}, "options": {}}, sort_keys=True)
+    b = json.dumps({"config": {"error_features": False, "lr": 1}, "options": {}}, sort_keys=True)
+    assert _variant(a, [a, b]) == " (error_features=True)" and _variant(b, [a]) == ""

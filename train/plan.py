@@ -71,7 +71,7 @@ def plan(task: str, algo: str, frames: int | None = None, seed: int = 0, overrid
     module, cls = algo_module(algo)
     overrides = dict(overrides or {})
     if algo == "ppo":
-        cfg = build(cls, module.LIMITS, overrides=overrides, source=source)
+        cfg = build(cls, module.LIMITS, base=module.config_for(task), overrides=overrides, source=source)
     else:
         for key in ("seed", "frames"):
             if key in overrides:

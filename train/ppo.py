@@ -48,6 +48,16 @@ class PPOConfig:
     checkpoint_every: int = 10  # iterations
 
 
+# Per-task settings on top of the defaults. track_3dof: the tracking errors as inputs (docs/tasks_3dof.md "Results":
+# test MAE 1.26 deg at 0.9 M frames with them, 2.62 deg at best without, seed 0; one seed, not a search)
+PRESETS = {"track_3dof": {"error_features": True}}
+
+
+def config_for(task: str) -> PPOConfig:
+    """The defaults with the task's preset (PRESETS) applied."""
+    return PPOConfig(**PRESETS.get(task, {}))
+
+
 LIMITS = {"num_envs": at_least(1), "steps_per_env": at_least(1), "hidden_dims": sizes(),
           "activation": one_of("elu", "selu", "relu", "crelu", "lrelu", "tanh", "sigmoid", "softplus", "gelu",
                                "swish", "mish", "identity"),
@@ -65,11 +75,18 @@ def frames_per_iteration(cfg: PPOConfig) -> int:
 
 class ErrorFeatures(torch.nn.Module):
     """Appends the tracking errors to the observation: the policy needs them at ~1 deg resolution, which standardised
-    absolute angles (0-100 deg) blur. Part of the exported policy, so it still takes the task's observation."""
+    absolute angles (0-100 deg) blur. Part of the exported policy, so it still takes the task's observation.
+    `dofs`: the task's coordinates (1, or 3 on the full shoulder: observation = angles, rates, targets, target rates,
+    activations, each block `dofs` wide)."""
+
+    def __init__(self, dofs: int = 1):
+        super().__init__()
+        self.dofs = int(dofs)
 
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
-        err = (obs[:, 2:3] - obs[:, 0:1]) / 5.0
-        derr = (obs[:, 3:4] - obs[:, 1:2]) / 10.0
+        d = self.dofs
+        err = (obs[:, 2 * d:3 * d] - obs[:, 0:d]) / 5.0
+        derr = (obs[:, 3 * d:4 * d] - obs[:, d:2 * d]) / 10.0
         return torch.cat([obs, err, derr], dim=1)
 
 
@@ -80,7 +97,8 @@ class ScaledActions:
     def __init__(self, venv, reward_scale: float = 1.0, error_features: bool = False):
         self.venv = venv
         self.reward_scale = reward_scale
-        self.features = ErrorFeatures() if error_features else None
+        self.dofs = getattr(venv.task, "dofs", 1)  # the 3-DOF tasks' Track3D has 3
+        self.features = ErrorFeatures(self.dofs) if error_features else None
         for key in ("num_envs", "num_actions", "max_episode_length", "device", "cfg"):
             setattr(self, key, getattr(venv, key))
 
@@ -168,11 +186,11 @@ def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval,
                         "train/mean_return": np.mean(run.returns) if run.returns else None})
         run.advance(per_iteration, scalars)
         if run.frames >= next_eval or run.frames >= frames:
-            on_eval(export(alg, cfg.error_features))
+            on_eval(export(alg, cfg.error_features, env.dofs))
             next_eval = evaluate_every(run.frames)
         if iteration % cfg.checkpoint_every == 0 or run.frames >= frames:
             run.save_checkpoint({"alg": alg.save(), "torch_rng": torch.get_rng_state()})
-    return export(alg, cfg.error_features)
+    return export(alg, cfg.error_features, env.dofs)
 
 
 def load_init(alg, init: dict) -> None:
@@ -199,10 +217,10 @@ def load_init(alg, init: dict) -> None:
                          f"network of the policy it starts from (hidden_dims, error_features)") from exc
 
 
-def export(alg, error_features: bool = False) -> torch.nn.Module:
+def export(alg, error_features: bool = False, dofs: int = 1) -> torch.nn.Module:
     actor = alg.get_policy().as_jit()
     if error_features:
-        actor = torch.nn.Sequential(ErrorFeatures(), actor)
+        actor = torch.nn.Sequential(ErrorFeatures(dofs), actor)
     return torch.jit.script(ScaledPolicy(torch.jit.script(actor), protocol.ACTION_LIMIT))
 
 

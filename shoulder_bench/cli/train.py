@@ -92,7 +92,10 @@ def _eval(args) -> int:
     from shoulder_bench.eval.evaluate import evaluate, inference_latency_ms, policy_for, trajectories_for
     from shoulder_bench.tasks import check_options, is_3dof, spec
 
-    three = args.task is not None and is_3dof(args.task)
+    if args.task is not None:
+        three = is_3dof(args.task)
+    else:  # a trained policy runs on its own task: a 3-DOF one takes 3-DOF trajectories
+        three = args.policy != "reference" and is_3dof(policy_for(args.policy)[2])
     extra = check_options(*([args.task] if three else []), **options_of(args))  # fail before the policy loads
     from shoulder_bench.eval.suites import load_suite, options_for, suite_options
 
