@@ -1,5 +1,6 @@
 """The leaderboard's section for the full shoulder's 3-DOF tasks (issue 12 §4): one row per (task, algorithm,
-setting) over its seeds, and the reference controller, each evaluated now on the fixed 3-DOF test set.
+setting) over its seeds, and the reference controller, each evaluated now on its task's fixed test set
+(`tasks.fixed_test_set`: the 3-DOF one; the scapular-plane task: the 1-DOF one in the scapular plane).
 
 Columns: the humerus orientation error (MAE with a 95 % bootstrap interval over seeds, RMSE), the error of each
 coordinate (plane of elevation, elevation, axial rotation; MAE over the frames that did not crash), crashes, frames
@@ -72,26 +73,32 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
             pretrained: bool = False) -> list[dict]:
     """Rows of the 3-DOF runs under `runs` (and, with `pretrained` or without runs, of the shipped 3-DOF agents,
     as the main board takes the shipped agents) and of the reference controller on each continuous 3-DOF task a
-    row has (empty without any); `test`: the trajectories (default the fixed 3-DOF test set; the tests pass
+    row has (empty without any); `test`: the trajectories (default each task's fixed test set; the tests pass
     fewer)."""
     from tqdm import tqdm
 
     from shoulder_bench.eval.evaluate import evaluate
     from shoulder_bench.eval.reference3 import ReferenceController3
-    from shoulder_bench.tasks import TASKS_3DOF
+    from shoulder_bench.tasks import TASKS_3DOF, fixed_test_set
     from shoulder_bench.train.policy import load_policy
-    from shoulder_bench.trajectory3 import load_test_set
 
     folders = run_folders(runs) if runs is not None else []
     agents = shipped() if pretrained or runs is None else []
     if not folders and not agents:
         return []
-    test = load_test_set() if test is None else test
+    sets: dict[str, list] = {}
+
+    def test_of(task: str) -> list:
+        if test is not None:
+            return test
+        if task not in sets:
+            sets[task] = fixed_test_set(task)
+        return sets[task]
     groups: dict[tuple[str, str], tuple[list, list]] = defaultdict(lambda: ([], []))
     for folder in tqdm(folders, desc="evaluating 3-DOF runs", disable=not progress):
         cfg = json.loads((folder / "config.json").read_text())
         policy, _ = load_policy(str(folder / "policy.pt"))
-        score = evaluate(policy, cfg["task"], test, options=cfg.get("options") or None)
+        score = evaluate(policy, cfg["task"], test_of(cfg["task"]), options=cfg.get("options") or None)
         metrics = json.loads((folder / "metrics.json").read_text()) if (folder / "metrics.json").exists() else {}
         # one row per setting: runs pool only when their algorithm config and options agree (seeds, budgets apart)
         setting = json.dumps({"config": cfg.get("config"), "options": cfg.get("options")}, sort_keys=True)
@@ -102,14 +109,14 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
         policy, meta = load_policy(str(path))
         record = path.with_suffix(".json")
         metrics = json.loads(record.read_text()) if record.exists() else {}
-        score = evaluate(policy, meta["task"], test, options=meta.get("options") or None)
+        score = evaluate(policy, meta["task"], test_of(meta["task"]), options=meta.get("options") or None)
         g = groups[(meta["task"], f"{str(meta.get('algo', '')).upper()} (shipped agent {path.stem})", "")]
         g[0].append(score)
         g[1].append(metrics)
     rows = [_row(task, algo + _variant(setting, [s for t, a, s in groups if (t, a) == (task, algo)]),
                  *groups[(task, algo, setting)]) for task, algo, setting in sorted(groups)]
     for task in sorted({t for t, _, _ in groups if not TASKS_3DOF[t][1]}):  # the continuous tasks' reference
-        score = evaluate(ReferenceController3(task), task, test)
+        score = evaluate(ReferenceController3(task), task, test_of(task))
         rows.append(_row(task, "reference controller", [score], []))
     return rows
 
@@ -122,7 +129,8 @@ def _cells(r: dict) -> list[str]:
             f"{r['plane']:.2f}", f"{r['elevation']:.2f}", f"{r['rotation']:.2f}", str(r["crashes"]), frames, wall]
 
 
-NOTE = ("3-DOF rows: evaluated now on the fixed 100-trajectory 3-DOF test set (eval/data/test_set_3dof.csv); the "
+NOTE = ("3-DOF rows: evaluated now on their task's fixed 100-trajectory test set (eval/data/test_set_3dof.csv; "
+        "elevate_scapular_plane_12m: the 1-DOF test set's elevations in the scapular plane at rotation 0); the "
         "orientation error is the angle between the achieved and the target humerus orientation; each coordinate's "
         "MAE excludes crashed frames; the interval is the 95 % bootstrap over seeds (none for one seed).")
 

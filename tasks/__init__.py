@@ -47,13 +47,17 @@ def spec(name: str) -> tuple[tuple[str, ...], bool]:
 
 
 def fixed_test_set(name: str) -> list:
-    """The fixed test set of a task: the 100 1-DOF trajectories, or the 100 3-DOF ones (`trajectory3`)."""
-    if is_3dof(name):
-        from shoulder_bench.trajectory3 import load_test_set as load3
-
-        return load3()
+    """The fixed test set of a task: the 100 1-DOF trajectories, the 100 3-DOF ones (`trajectory3`), or for the
+    scapular-plane task the 1-DOF ones as elevations in the scapular plane at rotation 0 (`track3d.scapular`)."""
     from shoulder_bench.trajectory import load_test_set
 
+    if is_3dof(name):
+        from shoulder_bench.tasks.track3d import scapular
+        from shoulder_bench.trajectory3 import load_test_set as load3
+
+        if TASKS_3DOF[name][2].get("workspace") == "scapular_plane":
+            return [scapular(t.angle_deg, name=t.name) for t in load_test_set()]
+        return load3()
     return load_test_set()
 
 

@@ -37,6 +37,13 @@ INITS = ("hold", "zero")
 OPTIONS = ("alpha", "omega_max", "init", "workspace", "muscle_model")  # what the 3-DOF tasks accept
 
 
+def scapular(elevation_deg, name: str = "") -> trajectory3.Trajectory3:
+    """A 1-DOF elevation target (deg at the frame rate) as a 3-DOF one in the scapular plane at rotation 0."""
+    e = np.asarray(elevation_deg, dtype=float)
+    angle = np.stack([np.full_like(e, SCAPULAR_PLANE_DEG), e, np.zeros_like(e)], axis=1)
+    return trajectory3.Trajectory3(angle, np.gradient(angle, protocol.FRAME_S, axis=0), name=name)
+
+
 class Physics3(_Physics):
     """The full shoulder with named accessors (degrees at this surface)."""
 
@@ -125,9 +132,7 @@ class Track3D(control.Task):
             return self.fixed
         rng = self.rng if rng is None else rng
         if self.workspace == "scapular_plane":
-            elevation = trajectory.random_trajectory(rng, self.split).angle_deg
-            angle = np.stack([np.full_like(elevation, SCAPULAR_PLANE_DEG), elevation, np.zeros_like(elevation)], 1)
-            return trajectory3.Trajectory3(angle, np.gradient(angle, protocol.FRAME_S, axis=0), name=self.split)
+            return scapular(trajectory.random_trajectory(rng, self.split).angle_deg, name=self.split)
         return trajectory3.random_trajectory(rng, self.split)
 
     # --- dm_control Task API -------------------------------------------------------------------------------------

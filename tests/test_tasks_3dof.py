@@ -218,3 +218,12 @@ def test_board_rows_of_different_settings_do_not_pool():
     a = json.dumps({"config": {"error_features": True, "lr": 1}, "options": {}}, sort_keys=True)
     b = json.dumps({"config": {"error_features": False, "lr": 1}, "options": {}}, sort_keys=True)
     assert _variant(a, [a, b]) == " (error_features=True)" and _variant(b, [a]) == ""
+
+
+def test_scapular_plane_task_is_tested_on_the_paper_test_set_in_the_scapular_plane():
+    from shoulder_bench.trajectory import load_test_set
+
+    one, three = load_test_set(), fixed_test_set("elevate_scapular_plane_12m")
+    assert len(three) == len(one) == 100
+    np.testing.assert_allclose(three[3].angle_deg[:, 1], one[3].angle_deg)
+    assert np.all(three[3].angle_deg[:, 0] == 30.0) and np.all(three[3].angle_deg[:, 2] == 0.0)
