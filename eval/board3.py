@@ -61,12 +61,13 @@ def _row(task: str, algo: str, scores: list[dict], metrics: list[dict]) -> dict:
             "frames": [m.get("frames") for m in metrics if m], "wall_s": [m.get("wall_s") for m in metrics if m]}
 
 
-def shipped() -> list[Path]:
-    """The shipped 3-DOF agents (train/pretrained/*.pt whose task is a 3-DOF one)."""
+def shipped() -> list[tuple[Path, object, dict]]:
+    """The shipped 3-DOF agents (train/pretrained/*.pt whose task is a 3-DOF one): (path, policy, metadata)."""
     from shoulder_bench.tasks import TASKS_3DOF
     from shoulder_bench.train.policy import load_policy, pretrained_dir
 
-    return [p for p in sorted(pretrained_dir().glob("*.pt")) if load_policy(str(p))[1].get("task") in TASKS_3DOF]
+    agents = [(p, *load_policy(str(p))) for p in sorted(pretrained_dir().glob("*.pt"))]
+    return [a for a in agents if a[2].get("task") in TASKS_3DOF]
 
 
 def collect(runs: Path | None, progress: bool = False, test: list | None = None,
@@ -105,8 +106,7 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
         g = groups[(cfg["task"], cfg["algo"].upper(), setting)]
         g[0].append(score)
         g[1].append(metrics)
-    for path in agents:  # a shipped agent's record (its source run's metrics) lies beside it
-        policy, meta = load_policy(str(path))
+    for path, policy, meta in agents:  # a shipped agent's record (its source run's metrics) lies beside it
         record = path.with_suffix(".json")
         metrics = json.loads(record.read_text()) if record.exists() else {}
         score = evaluate(policy, meta["task"], test_of(meta["task"]), options=meta.get("options") or None)

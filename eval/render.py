@@ -67,8 +67,10 @@ class _Controller:
     muscle_model: str | None = None
 
 
-def _controller(policy: str | None, task: str | None, condition: str | None = None) -> tuple[_Controller, str]:
-    """The controller for `policy` and the task it runs on (the reference controller plans with `condition`)."""
+def _controller(policy: str | None, task: str | None, condition: str | None = None,
+                loaded: tuple | None = None) -> tuple[_Controller, str]:
+    """The controller for `policy` and the task it runs on (the reference controller plans with `condition`);
+    `loaded`: `policy_for(policy)` already called (not loaded again)."""
     import torch
 
     from shoulder_bench import protocol
@@ -95,7 +97,7 @@ def _controller(policy: str | None, task: str | None, condition: str | None = No
         return _Controller("feedback (PD)", act), task
     from shoulder_bench.eval.evaluate import policy_for
 
-    module, meta, task = policy_for(policy, task, options={"condition": condition} if condition else None)
+    module, meta, task = loaded or policy_for(policy, task, options={"condition": condition} if condition else None)
     if policy == "reference":
         label = "reference controller"
     else:
@@ -285,17 +287,19 @@ def render_video(out: Path | str, task: str | None = None, policy: str | None = 
         task = _check_task(task)
     from shoulder_bench.tasks import is_3dof
 
-    if task is None and policy not in (None, "reference"):  # a trained policy runs on its own task
+    loaded = None
+    if task is None and policy not in (None, "reference"):  # a trained policy runs on its own task (loaded once)
         from shoulder_bench.eval.evaluate import policy_for
 
-        task = policy_for(policy)[2]
+        loaded = policy_for(policy)
+        task = loaded[2]
     if task is not None and is_3dof(task):  # the full shoulder (eval.render3)
         if condition is not None:
             raise ValueError(f"--condition: the conditions are the 1-DOF tasks'; {task} has none (yet)")
         from shoulder_bench.eval.render3 import render_video3
 
         return render_video3(out, task, policy, trajectory, seconds, width, height, fmt, fps, camera, seed,
-                             progress, multisample)
+                             progress, multisample, loaded)
     from shoulder_bench import conditions
 
     geometry = conditions.geometry(condition)  # an unknown or clashing condition fails here, before any work
@@ -310,7 +314,7 @@ def render_video(out: Path | str, task: str | None = None, policy: str | None = 
                                                          f"--trajectory out for a random test target")
             target = traj_mod.load_csv(path)[0]
 
-    ctrl, task = _controller(policy, task, condition)
+    ctrl, task = _controller(policy, task, condition, loaded)
     muscles = TASKS[task][0]
     removed = {m for m, f in conditions.factors(condition, muscles).items() if f == 0.0}
     options = {} if ctrl.muscle_model is None else {"muscle_model": ctrl.muscle_model}

@@ -20,10 +20,12 @@ from shoulder_bench.eval.render_model import GHOST, PALE, SATURATED, build_rende
 
 def render_video3(out: Path, task: str, policy: str | None, trajectory=None, seconds: float | None = None,
                   width: int = 640, height: int = 480, fmt: str = "mp4", fps: int = 30, camera: str = "front",
-                  seed: int = 0, progress: bool = False, multisample: bool = False) -> dict:
+                  seed: int = 0, progress: bool = False, multisample: bool = False,
+                  loaded: tuple | None = None) -> dict:
     """Render one episode of the 3-DOF `task` to `out` (inputs already checked by `eval.render.render_video`).
     policy: None or "reference" (the 3-DOF reference controller), a policy file/run folder or pretrained:NAME;
-    trajectory: an ADL name, a 3-DOF CSV or a `Trajectory3`; default a random test target drawn with `seed`."""
+    trajectory: an ADL name, a 3-DOF CSV or a `Trajectory3`; default a random test target drawn with `seed`;
+    loaded: `policy_for(policy)` already called by the caller (not loaded again)."""
     import mujoco
     import torch
 
@@ -37,7 +39,7 @@ def render_video3(out: Path, task: str, policy: str | None, trajectory=None, sec
     else:
         from shoulder_bench.eval.evaluate import policy_for
 
-        ctrl, meta, task = policy_for(policy, task)
+        ctrl, meta, task = loaded or policy_for(policy, task)
         label = f"{str(meta.get('algo', 'policy')).upper()} ({policy})"
     if isinstance(trajectory, Path) and str(trajectory) in trajectory3.ADL:  # the CLI passes a Path
         trajectory = str(trajectory)

@@ -110,7 +110,7 @@ class MuscleTable:
             problems.append("non-finite values")
         if k < 2 or not np.allclose(np.diff(self.angle_deg), self.angle_deg[1] - self.angle_deg[0]):
             problems.append("angle grid is not uniform")
-        if j < 2 or self.activation[0] != 0 or self.activation[-1] != 1 or np.any(np.diff(self.activation) <= 0):
+        if not rising_activation(self.activation):
             problems.append("activation grid must rise from 0 to 1")
         if problems:
             raise ValueError(f"muscle table {path}: {'; '.join(problems)}; {fix}")
@@ -127,6 +127,12 @@ class MuscleTable:
 
 
 MODEL_NAME = "models/shoulder.xml"
+
+
+def rising_activation(activation: np.ndarray) -> bool:
+    """Whether a table's activation levels rise strictly from 0 to 1 (at least two): what every force table needs."""
+    a = np.asarray(activation)
+    return len(a) >= 2 and a[0] == 0 and a[-1] == 1 and bool(np.all(np.diff(a) > 0))
 
 
 def read_table(path: Path, keys: tuple[str, ...], fix: str) -> tuple[dict, dict]:

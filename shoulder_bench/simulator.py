@@ -84,11 +84,16 @@ class BatchSimulator:
                 raise ValueError(f"{source}: no actuator(s) {missing} for the law's muscles; the model has {names}")
             self.columns = np.array([names.index(x) for x in law.actuators])  # actuator of each law column
         joints = [m.joint(j).name for j in range(m.njnt)]
-        if joint is None:  # as model.attach_law: v1's abduction, else v2's shoulder_elv
+        # a length-keyed law (tendon_law.TendonLaw, the full shoulder's) reads each tendon's length inside MuJoCo's
+        # callbacks: no joint, and only the "mujoco" engine (the numpy RK4 evaluates the law outside MuJoCo)
+        by_length = law is not None and getattr(law, "kind", "joint") == "length"
+        if by_length and (joint is not None or engine != "mujoco"):
+            raise ValueError(f"{source}: a length-keyed law takes no joint and runs on engine='mujoco' only")
+        if joint is None and not by_length:  # as model.attach_law: v1's abduction, else v2's shoulder_elv
             joint = next((j for j in DEFAULT_JOINTS if j in joints), None)
         if joint is not None and joint not in joints:
             raise ValueError(f"{source}: no joint {joint!r}; the model has {joints}")
-        if law is not None and joint is None:
+        if law is not None and joint is None and not by_length:
             raise ValueError(f"{source}: the law needs a joint angle; name the joint (joint=...), one of {joints}")
         self.joint = joint
         if engine not in ENGINES:

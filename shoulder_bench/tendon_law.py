@@ -24,7 +24,14 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from shoulder_bench.muscle import VMAX_LOPT_PER_S, check_muscle_model, law_cell, law_point, read_table
+from shoulder_bench.muscle import (
+    VMAX_LOPT_PER_S,
+    check_muscle_model,
+    law_cell,
+    law_point,
+    read_table,
+    rising_activation,
+)
 
 REQUIRED_KEYS = ("length_m", "activation", "force_N", "meta")
 REBUILD = "shoulder-bench fem build --full"
@@ -60,7 +67,7 @@ class TendonTable:
         if k < 2 or not np.allclose(np.diff(table.length_m), table.length_m[1] - table.length_m[0]) or \
                 table.length_m[1] <= table.length_m[0]:
             problems.append("length grid is not uniform and ascending")
-        if j < 2 or table.activation[0] != 0 or table.activation[-1] != 1 or np.any(np.diff(table.activation) <= 0):
+        if not rising_activation(table.activation):
             problems.append("activation grid must rise from 0 to 1")
         if "optimal_fibre_length_m" not in meta:
             problems.append("meta lacks optimal_fibre_length_m (the force-velocity scale)")

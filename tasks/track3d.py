@@ -44,6 +44,14 @@ def scapular(elevation_deg, name: str = "") -> trajectory3.Trajectory3:
     return trajectory3.Trajectory3(angle, np.gradient(angle, protocol.FRAME_S, axis=0), name=name)
 
 
+def valid_range_deg(m) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) (3,) deg of each coordinate beyond which the simulation has failed: its joint range widened by
+    VALID_MARGIN_DEG (the single env's and the batched env's crash rule). `m`: an mjModel or dm_control's wrapper."""
+    jnt = [m.joint(c).id for c in full_arm.COORDINATES]
+    ranges = np.degrees(np.asarray(m.jnt_range)[jnt])
+    return ranges[:, 0] - VALID_MARGIN_DEG, ranges[:, 1] + VALID_MARGIN_DEG
+
+
 class Physics3(_Physics):
     """The full shoulder with named accessors (degrees at this surface)."""
 
@@ -56,9 +64,7 @@ class Physics3(_Physics):
             m = self.model
             q = np.array([m.jnt_qposadr[m.name2id(c, "joint")] for c in full_arm.COORDINATES])
             v = np.array([m.jnt_dofadr[m.name2id(c, "joint")] for c in full_arm.COORDINATES])
-            lo = np.degrees(m.jnt_range[[m.name2id(c, "joint") for c in full_arm.COORDINATES], 0]) - VALID_MARGIN_DEG
-            hi = np.degrees(m.jnt_range[[m.name2id(c, "joint") for c in full_arm.COORDINATES], 1]) + VALID_MARGIN_DEG
-            adr = self.__dict__["_adr3"] = (q, v, lo, hi)
+            adr = self.__dict__["_adr3"] = (q, v, *valid_range_deg(m.ptr))
         return adr
 
     def coordinates_deg(self) -> np.ndarray:

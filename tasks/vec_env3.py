@@ -1,5 +1,6 @@
 """N copies of a 3-DOF task (`tasks.track3d`) in lockstep as an rsl-rl `VecEnv`: MuJoCo's RK4 with the compiled
-callbacks, one `rollout` of a frame's 10 physics steps for all copies; auto-reset, episode statistics.
+callbacks (`simulator.BatchSimulator`, engine "mujoco"), one `rollout` of a frame's 10 physics steps for all copies;
+auto-reset, episode statistics.
 
 Copy i draws its targets as `shoulder_bench.load(name, seed=seed + i)` does and starts its episodes the same way
 (pose, holding activations), so a batched episode follows the single env's with the same actions up to the solver's
@@ -9,21 +10,18 @@ the next frame, the 13 activations; the same as the single env's `protocol.flatt
 """
 from __future__ import annotations
 
-import mujoco
 import numpy as np
 import torch
-from mujoco import rollout
 from tensordict import TensorDict
 
 from shoulder_bench import full_arm, protocol, statics_full, trajectory3
-from shoulder_bench.model import attach_law, install_callbacks
+from shoulder_bench.arm import harden_couplings
+from shoulder_bench.simulator import BatchSimulator
 from shoulder_bench.tasks import TASKS_3DOF, check_name
 from shoulder_bench.tasks import options as options_check
-from shoulder_bench.tasks.track3d import Track3D
+from shoulder_bench.tasks.track3d import Track3D, valid_range_deg
 from shoulder_bench.tasks.vec_env import Lockstep
 from shoulder_bench.tendon_law import TendonLaw
-
-START_TIME = 1e3  # every frame's rollout starts at this time, so a MuJoCo reset (time back to 0) shows
 
 
 class VecEnv3(Lockstep):
@@ -48,20 +46,14 @@ class VecEnv3(Lockstep):
         self.num_actions = self.n
         self.cfg = {"task": name, "muscle_model": muscle_model, **options}
         self.law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS)
-        m = self.model = full_arm.compile_full()
-        attach_law(m, self.law)
-        install_callbacks(native=True)  # rollout's threads call them without the GIL
+        # MuJoCo's RK4 with the compiled callbacks, one rollout per frame (the law reads each tendon's length)
+        self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread, path=full_arm.MODEL_FILE,
+                                  prepare=harden_couplings, engine="mujoco")
+        m = self.model = self.sim.model
         self.pose = full_arm.Pose(m)
         self.statics = statics_full.Statics(self.law, self.pose)
-        self.steps_per_frame = int(round(protocol.FRAME_S / m.opt.timestep))
-        names = [m.actuator(i).name for i in range(m.nu)]
-        self.ctrl_cols = np.array([names.index(t) for mu in self.muscles for t in full_arm.ACTUATORS[mu]])
-        self.ctrl_src = np.array([k for k, mu in enumerate(self.muscles) for _ in full_arm.ACTUATORS[mu]])
         self.qadr, self.dadr = self.pose.qadr, self.pose.dadr
-        ranges = np.degrees(m.jnt_range[[m.joint(c).id for c in full_arm.COORDINATES]])
-        self.valid_lo = ranges[:, 0] - 30.0
-        self.valid_hi = ranges[:, 1] + 30.0
-        self._setup_rollout(nthread)
+        self.valid_lo, self.valid_hi = valid_range_deg(m)
         self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
         split_frames = int(round(trajectory3.SPLITS[self.task.split]["duration_s"] / protocol.FRAME_S))
         self.episode_frames = np.array([split_frames if t is None else t.frames for t in self.fixed])
@@ -79,26 +71,6 @@ class VecEnv3(Lockstep):
         self.last_crashed = np.zeros(self.num_envs, dtype=bool)
         self.last_coordinate_error_deg = np.zeros((self.num_envs, 3))
         self._reset(np.arange(self.num_envs))
-
-    def _setup_rollout(self, nthread: int) -> None:
-        m = self.model
-        spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-        d = mujoco.MjData(m)
-        probe = np.zeros(mujoco.mj_stateSize(m, spec))
-        d.qpos[:], d.qvel[:], d.time = 1e6 + np.arange(m.nq), 2e6 + np.arange(m.nv), 3e6
-        mujoco.mj_getState(m, d, probe, spec)
-        iq, iv = int(np.flatnonzero(probe == 1e6)[0]), int(np.flatnonzero(probe == 2e6)[0])
-        self._iq, self._iv = slice(iq, iq + m.nq), slice(iv, iv + m.nv)
-        self._it = int(np.flatnonzero(probe == 3e6)[0])
-        mujoco.mj_resetData(m, d)
-        base = np.zeros_like(probe)
-        mujoco.mj_getState(m, d, base, spec)
-        self._state = np.tile(base, (self.num_envs, 1))
-        self._ctrl = np.zeros((self.num_envs, self.steps_per_frame, m.nu))
-        self._out = np.zeros((self.num_envs, self.steps_per_frame, len(base)))
-        self._datas = [mujoco.MjData(m) for _ in range(nthread)]
-        self._models = [m] * self.num_envs
-        self._rollout = rollout.Rollout(nthread=nthread)
 
     def _reset(self, idx: np.ndarray) -> None:
         for i in idx:
@@ -131,16 +103,9 @@ class VecEnv3(Lockstep):
         a = actions.detach().cpu().numpy() if isinstance(actions, torch.Tensor) else np.asarray(actions)
         applied, sent = protocol.to_delta(a, self.n, self.discrete, batch=self.num_envs)
         self.act = np.clip(self.act + applied, 0.0, 1.0)
-        self._ctrl[:, :, self.ctrl_cols] = self.act[:, None, self.ctrl_src]
-        self._state[:, self._iq], self._state[:, self._iv] = self.qpos, self.qvel
-        self._state[:, self._it] = START_TIME
-        self._rollout.rollout(self._models, self._datas, self._state, self._ctrl, nstep=self.steps_per_frame,
-                              skip_checks=True, state=self._out)
-        end = self._out[:, -1]
-        self.qpos, self.qvel = end[:, self._iq].copy(), end[:, self._iv].copy()
+        self.qpos, self.qvel, bad = self.sim.frame_state(self.qpos, self.qvel, self.act)  # bad: MuJoCo reset it
         angles = np.degrees(self.qpos[:, self.qadr])
-        crashed = ~(end[:, self._it] > START_TIME) | ~np.isfinite(end).all(axis=1) | \
-            np.any((angles < self.valid_lo) | (angles > self.valid_hi), axis=1)
+        crashed = bad | np.any((angles < self.valid_lo) | (angles > self.valid_hi), axis=1)
         self.qpos[crashed] = np.nan_to_num(self.qpos[crashed])
         self.qvel[crashed] = 0.0
         self.frames += 1
@@ -181,4 +146,4 @@ class VecEnv3(Lockstep):
         self.episode_length_buf = torch.as_tensor(self.frames, dtype=torch.long, device=self.device)
 
     def close(self) -> None:
-        self._rollout.close()
+        self.sim.close()

@@ -92,30 +92,29 @@ def _eval(args) -> int:
     from shoulder_bench.eval.evaluate import evaluate, inference_latency_ms, policy_for, trajectories_for
     from shoulder_bench.tasks import check_options, is_3dof, spec
 
-    if args.task is not None:
-        three = is_3dof(args.task)
-    else:  # a trained policy runs on its own task: a 3-DOF one takes 3-DOF trajectories
-        three = args.policy != "reference" and is_3dof(policy_for(args.policy)[2])
-    extra = check_options(*([args.task] if three else []), **options_of(args))  # fail before the policy loads
+    # a trained policy without --task runs on its own task, which decides the trajectories (1-DOF or 3-DOF): loaded
+    # first then, and only once
+    loaded = policy_for(args.policy) if args.task is None and args.policy != "reference" else None
+    hint = args.task if loaded is None else loaded[2]
+    three = hint is not None and is_3dof(hint)
+    extra = check_options(*([hint] if three else []), **options_of(args))  # fail before a given --task's policy loads
     from shoulder_bench.eval.suites import load_suite, options_for, suite_options
 
     if args.suite is not None and args.trajectories is not None:
         raise ValueError("give --suite or --trajectories, not both")
     suite = None if args.trajectories is not None or three else args.suite or "paper"
-    if three:
-        trajs, label = None, args.trajectories or "test"
+    if three:  # the 3-DOF test set, an ADL profile or a 3-DOF CSV; no suites (yet)
+        if args.suite is not None:
+            raise ValueError(f"--suite: the suites are the 1-DOF tasks'; {hint} takes --trajectories (test, an ADL "
+                             "name or a 3-DOF CSV)")
+        label = args.trajectories or "test"
+        trajs = trajectories_for(label, task=hint)
     elif suite is None:
         trajs, label = trajectories_for(args.trajectories), args.trajectories
     else:
         options_for(suite, extra, who="--option")  # a conflict with the suite's options fails before any work
         trajs, label = load_suite(suite), f"suite {suite}"
-    policy, meta, task = policy_for(args.policy, args.task, options=extra)
-    if is_3dof(task):  # the 3-DOF test set, an ADL profile or a 3-DOF CSV; no suites (yet)
-        if args.suite is not None:
-            raise ValueError(f"--suite: the suites are the 1-DOF tasks'; {task} takes --trajectories (test, an ADL "
-                             "name or a 3-DOF CSV)")
-        suite, label = None, args.trajectories or "test"
-        trajs = trajectories_for(label, task=task)
+    policy, meta, task = loaded if loaded is not None else policy_for(args.policy, args.task, options=extra)
     options = dict(meta.get("options") or {}) | extra
     if suite is not None:  # the suite's task options on top of the policy's own (eval.suites.options_for)
         options = options_for(suite, options, who=f"policy {args.policy} (trained with it)")

@@ -24,6 +24,7 @@ missing or whose hash differs, so an interrupted build resumes where it stopped.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import time
@@ -78,12 +79,14 @@ def input_hash(spec: SheetSpec, resolution: str, lengths: np.ndarray, material: 
     return hashlib.sha256(blob.encode()).hexdigest()
 
 
-def _cached(path: Path, digest: str) -> bool:
+def _cached(path: Path, digest: str) -> dict | None:
+    """The meta of the table at `path` if its input hash is `digest`, else None (also when missing or unreadable)."""
     try:
         with np.load(path, allow_pickle=False) as z:
-            return json.loads(str(z["meta"])).get("input_hash") == digest
+            meta = json.loads(str(z["meta"]))
     except Exception:  # missing or unreadable: rebuild
-        return False
+        return None
+    return meta if meta.get("input_hash") == digest else None
 
 
 def _solve_one(job) -> tuple[str, dict, float]:
@@ -127,27 +130,21 @@ def _build(folder: Path, coarse: bool, quiet: bool, jobs: int, names: tuple, mat
     for t in names:
         digest = input_hash(all_specs[t], res, grids[t], material, settings)
         path = table_path(t, "fem", folder)
-        if _cached(path, digest):
-            with np.load(path, allow_pickle=False) as z:
-                result[t] = dict(json.loads(str(z["meta"])), cached=True)
+        meta = _cached(path, digest)
+        if meta is not None:
+            result[t] = dict(meta, cached=True)
         else:
             todo.append((t, digest, path))
-    jobs_ = [(t, all_specs[t], grids[t], res, material, settings) for t, _, _ in todo]
-    where = {t: (digest, path) for t, digest, path in todo}
-    with tqdm(total=len(jobs_), desc="fem full (tendons)", disable=quiet or not jobs_) as bar:
-        if int(jobs) == 1 or len(jobs_) <= 1:
-            done = map(_solve_one, jobs_)
-        else:
-            pool = ProcessPoolExecutor(max_workers=int(jobs))
-            done = pool.map(_solve_one, jobs_)
-        for t, fem, seconds in done:
-            digest, path = where[t]
+    parallel = int(jobs) > 1 and len(todo) > 1
+    with tqdm(total=len(todo), desc="fem full (tendons)", disable=quiet or not todo) as bar, \
+            (ProcessPoolExecutor(max_workers=int(jobs)) if parallel else contextlib.nullcontext()) as pool:
+        solved = (pool.map if parallel else map)(_solve_one, [(t, all_specs[t], grids[t], res, material, settings)
+                                                                for t, _, _ in todo])
+        for (t, digest, path), (_, fem, seconds) in zip(todo, solved):  # map keeps the order
             meta = _meta(t, all_specs[t], res, digest, material, settings, fem, seconds)
             _write(path, grids[t], fem, meta)
             result[t] = dict(meta, cached=False)
             bar.update(1)
-        if int(jobs) > 1 and len(jobs_) > 1:
-            pool.shutdown()
     return {t: result[t] for t in names}
 
 
