@@ -1,12 +1,15 @@
-"""Training wall time to accuracy for PPO configs (issue 15 §3): each config trains `abduction_4m` for several seeds,
-one run after the other, and the table gives the median over seeds of the training wall time (evaluations excluded,
-`metrics.json` `to_accuracy`) and frames to test MAE <= 2, 1 and 0.5 deg, the final MAE and the frames/s.
+"""Training wall time to accuracy for PPO and BDQ configs (issue 15 §3): each config trains the four-muscle task for
+several seeds, one run after the other, and the table gives the median over seeds of the training wall time
+(evaluations excluded, `metrics.json` `to_accuracy`) and frames to test MAE <= 2, 1 and 0.5 deg, the final MAE and
+the frames/s.
 
-    .venv/bin/python benchmarks/ppo_wallclock.py [--configs default e1m8t2 ...] [--seeds 0 1 2] [--frames 600000]
-        [--eval-every 20000] [--out runs/ppo_wallclock] [--task abduction_4m]
+    .venv/bin/python benchmarks/wallclock.py [--algo ppo|bdq] [--configs NAME ...] [--seeds 0 1 2]
+        [--frames 600000] [--eval-every 20000] [--out runs/ppo_wallclock] [--task abduction_4m]
 
-Configs are overrides of `PPOConfig`'s defaults before this search (`BEFORE`: 256 envs, 5 epochs x 4 mini-batches;
-`CONFIGS` below; `default` is `BEFORE` itself; the search chose `e1m8t1_n64`, today's `PPOConfig()`). Runs are normal
+PPO configs are overrides of `PPOConfig`'s defaults before its search (`BEFORE`: 256 envs, 5 epochs x 4 mini-batches;
+`CONFIGS` below; `default` is `BEFORE` itself; the search chose `e1m8t1_n64`, today's `PPOConfig()`). BDQ configs
+(`BDQ_CONFIGS`, task `abduction_4m_discrete`) are overrides of the task's preset before its search (`BDQ_BEFORE`,
+`train.dqn.PRESETS`). Runs are normal
 run folders (`<out>/<config>/<seed>`), so a rerun resumes or reuses finished ones; `<out>/table.md` is rewritten at
 the end. The runs alternate configs within each seed (seed 0 of every config, then seed 1, ...), so that a change in
 the machine's load spreads over all configs. Wall times are this machine's: compare configs only within one table.
@@ -31,7 +34,27 @@ CONFIGS = {
     "e2m8t1": {"num_learning_epochs": 2, "num_mini_batches": 8},
     "e1m8t1_n128": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 128},
     "e1m8t1_n64": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64},
+    # round 3, from today's default (e1m8t1_n64): more updates per frame, smaller networks, a looser KL target
+    "n64_s12": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "steps_per_env": 12},
+    "n32": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 32},
+    "n64_h128": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "hidden_dims": [128, 128, 128]},
+    "n64_kl02": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "desired_kl": 0.02},
+    "n64_s8": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "steps_per_env": 8},
+    "n64_s12_m4": {"num_learning_epochs": 1, "num_mini_batches": 4, "num_envs": 64, "steps_per_env": 12},
 }
+# BDQ-4: the preset before its search (train.dqn.PRESETS["abduction_4m_discrete"] then: 32 envs, one gradient step of
+# 256 per vec step, lr 5e-4, 2 x 256)
+BDQ_BEFORE = {"branching": True, "hidden": [256, 256], "num_envs": 32, "updates_per_step": 1.0, "batch_size": 256,
+              "lr": 5e-4}
+BDQ_CONFIGS = {
+    "default": {},
+    "n128": {"num_envs": 128},  # a quarter of the gradient steps per frame
+    "n128_u2": {"num_envs": 128, "updates_per_step": 2.0},  # half of them
+    "n64_b512": {"num_envs": 64, "batch_size": 512},  # half the steps, each on twice the batch
+    "n128_lr1e-3": {"num_envs": 128, "lr": 1e-3},
+}
+SEARCHES = {"ppo": (BEFORE, CONFIGS, "abduction_4m", "runs/ppo_wallclock"),
+            "bdq": (BDQ_BEFORE, BDQ_CONFIGS, "abduction_4m_discrete", "runs/bdq_wallclock")}
 DEGREES = ("2.0", "1.0", "0.5")
 
 
@@ -51,16 +74,17 @@ def _cell(runs: list[dict], deg: str) -> str:
     return f"{statistics.median(wall):.1f} s · {statistics.median(frames) / 1e3:.0f}k ({len(reached)}/{len(runs)})"
 
 
-def table(results: dict[str, list[dict]], task: str) -> str:
+def table(results: dict[str, list[dict]], task: str, algo: str = "ppo") -> str:
+    before, configs, _, _ = SEARCHES[algo]
     head = ["config", "overrides", "seeds", *[f"to {float(d):g} deg: wall · frames (seeds)" for d in DEGREES],
             "final MAE (median, deg)", "frames/s (median)"]
-    lines = [f"PPO on `{task}` (overrides of the defaults before the search, {json.dumps(BEFORE)}): median over "
-             f"seeds of the training wall time (evaluations excluded) and frames to test "
+    lines = [f"{algo.upper()} on `{task}` (overrides of the defaults before the search, {json.dumps(before)}): "
+             f"median over seeds of the training wall time (evaluations excluded) and frames to test "
              f"MAE at or below each threshold (a seed that never reached it counts as the slowest); evaluated every "
              f"--eval-every frames.", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, runs in results.items():
         fps = _median([m["frames"] / (m["wall_s"] - m["eval_s"]) for m in runs])
-        lines.append("| " + " | ".join([name, json.dumps(CONFIGS[name]) if CONFIGS[name] else "–", str(len(runs)),
+        lines.append("| " + " | ".join([name, json.dumps(configs[name]) if configs[name] else "–", str(len(runs)),
                                         *[_cell(runs, d) for d in DEGREES],
                                         f"{_median([m['mae_deg'] for m in runs]):.2f}",
                                         "–" if fps is None else f"{fps:,.0f}"]) + " |")
@@ -71,24 +95,31 @@ def main(argv=None) -> int:
     from shoulder_bench.eval.experiment import train
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--configs", nargs="+", default=list(CONFIGS), choices=list(CONFIGS))
+    p.add_argument("--algo", choices=list(SEARCHES), default="ppo")
+    p.add_argument("--configs", nargs="+", help="names from CONFIGS (ppo) or BDQ_CONFIGS (bdq); default all")
     p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     p.add_argument("--frames", type=int, default=600_000)
     p.add_argument("--eval-every", type=int, default=20_000)
-    p.add_argument("--task", default="abduction_4m")
-    p.add_argument("--out", type=Path, default=Path("runs/ppo_wallclock"))
+    p.add_argument("--task", help="default: abduction_4m (ppo), abduction_4m_discrete (bdq)")
+    p.add_argument("--out", type=Path, help="default: runs/ppo_wallclock (ppo), runs/bdq_wallclock (bdq)")
     args = p.parse_args(argv)
+    before, configs, task, out = SEARCHES[args.algo]
+    args.configs = args.configs or list(configs)
+    unknown = [c for c in args.configs if c not in configs]
+    if unknown:
+        p.error(f"unknown {args.algo} config(s) {', '.join(unknown)}; known: {', '.join(configs)}")
+    args.task, args.out = args.task or task, args.out or Path(out)
     results: dict[str, list[dict]] = {name: [] for name in args.configs}
     for seed in args.seeds:
         for name in args.configs:
             out = args.out / name / str(seed)
             cfg = args.out / name / "config.json"
             cfg.parent.mkdir(parents=True, exist_ok=True)
-            cfg.write_text(json.dumps(BEFORE | CONFIGS[name]))
-            m = train(args.task, "ppo", args.frames, seed, out, resume=True, config=cfg, eval_every=args.eval_every)
+            cfg.write_text(json.dumps(before | configs[name]))
+            m = train(args.task, args.algo, args.frames, seed, out, resume=True, config=cfg, eval_every=args.eval_every)
             results[name].append(m)
             print(f"{name} seed {seed}: MAE {m['mae_deg']:.2f} deg, to_accuracy {m['to_accuracy']}", flush=True)
-    text = table(results, args.task)
+    text = table(results, args.task, args.algo)
     (args.out / "table.md").write_text(text)
     print(text)
     return 0
