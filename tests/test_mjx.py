@@ -27,6 +27,9 @@ from shoulder_bench import trajectory as targets  # noqa: E402
 from shoulder_bench.tasks import TASKS, mjx_env, mjx_protocol  # noqa: E402
 
 FRAME_BOUND_RAD = 1e-6  # measured 4.1e-8 rad (4 copies, one frame; docs/gpu.md)
+# The two bounds below are what equivalence should mean, not measurements. docs/gpu.md: over the first 20 frames of
+# abduction_4m the backends differ by <= 2.3e-6 rad to frame 18, then by 2.0e-2 rad at frame 20, so the episode test
+# fails today (a divergence not yet explained); the float32 test has not been run to its end.
 EPISODE_BOUND_RAD = 1e-4
 FLOAT32_BOUND_DEG = 0.5
 N = 4  # copies per env: one compiled frame serves every test of the fem tables
