@@ -7,7 +7,8 @@ the frames/s.
         [--frames 600000] [--eval-every 20000] [--out runs/ppo_wallclock] [--task abduction_4m]
 
 PPO configs are overrides of `PPOConfig`'s defaults before its search (`BEFORE`: 256 envs, 5 epochs x 4 mini-batches;
-`CONFIGS` below; `default` is `BEFORE` itself; the search chose `e1m8t1_n64`, today's `PPOConfig()`). BDQ configs
+`CONFIGS` below; `default` is `BEFORE` itself; rounds 1-2 chose `e1m8t1_n64`, round 3 `n64_s12`, today's
+`PPOConfig()`). BDQ configs
 (`BDQ_CONFIGS`, task `abduction_4m_discrete`) are overrides of the task's preset before its search (`BDQ_BEFORE`,
 `train.dqn.PRESETS`). Runs are normal
 run folders (`<out>/<config>/<seed>`), so a rerun resumes or reuses finished ones; `<out>/table.md` is rewritten at
@@ -34,13 +35,12 @@ CONFIGS = {
     "e2m8t1": {"num_learning_epochs": 2, "num_mini_batches": 8},
     "e1m8t1_n128": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 128},
     "e1m8t1_n64": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64},
-    # round 3, from today's default (e1m8t1_n64): more updates per frame, smaller networks, a looser KL target
+    # round 3, from round 2's choice (e1m8t1_n64): more updates per frame, smaller networks, a looser KL target
     "n64_s12": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "steps_per_env": 12},
     "n32": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 32},
     "n64_h128": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "hidden_dims": [128, 128, 128]},
     "n64_kl02": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "desired_kl": 0.02},
     "n64_s8": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "steps_per_env": 8},
-    "n64_s12_m4": {"num_learning_epochs": 1, "num_mini_batches": 4, "num_envs": 64, "steps_per_env": 12},
 }
 # BDQ-4: the preset before its search (train.dqn.PRESETS["abduction_4m_discrete"] then: 32 envs, one gradient step of
 # 256 per vec step, lr 5e-4, 2 x 256)
