@@ -12,18 +12,23 @@ last-stage acceleration). The model's joint equalities (the girdle's polycoef co
 tendons with sphere/cylinder wrapping and its Newton solver are all supported by MJX 3.17.
 
 The law covers every actuator of the model (6 columns for the v2 arm) with zero tables for the actuators a task does
-not drive (their force is then exactly 0, as in the MuJoCo backend where their control stays 0); with the law's
-arrays passed as arguments, one compiled frame serves every task and condition of the same table grid.
+not drive (their force is then exactly 0, as in the MuJoCo backend where their control stays 0). Each `MjxArm`
+compiles its own frame with the MJX model as a constant (passed as an argument, the model makes XLA's CPU code of
+`mjx.forward` ~10^4 x slower); the law's arrays are arguments, so that frame serves every law of the same table grid.
+The inside-wrap solver takes MuJoCo's settings (`WRAP_INSIDE`), not `mjx.put_model`'s looser ones.
 
-Precision: float64 (`dtype="float64"`, the tests on the CPU) agrees with the MuJoCo backend to rounding amplified by
-the model's conditioning: the placeholder girdle bodies make the mass matrix ill-conditioned, so the same
+Precision: float64 (`dtype="float64"`, the default on every device) agrees with the MuJoCo backend to rounding
+amplified by the model's conditioning: the placeholder girdle bodies make the mass matrix ill-conditioned, so the same
 acceleration computed by MJX's dense Cholesky and MuJoCo's sparse factorisation differs by up to ~1e-7 relative in
-single evaluations (docs/gpu.md gives the measured bounds per frame and per 20 s episode). float32 (the GPU default)
-is bounded by tests/test_mjx.py's drift measurement over 200 frames.
+single evaluations (docs/gpu.md gives the measured bounds per frame and per 20 s episode). float32 does not survive
+that conditioning (cond(M) = 2.7e8 at 60 deg, beyond float32's 1 / eps = 1.7e7): its unconstrained accelerations
+(~1e8 rad/s^2, which the girdle's equality constraints cancel down to O(1)) come out a factor 2 off and the first
+frame's accelerations are zero or NaN, so float32 is kept only for its (failing) drift test.
 """
 from __future__ import annotations
 
 import contextlib
+from functools import partial
 
 import jax
 import jax.numpy as jnp
@@ -212,7 +217,21 @@ def _frame(mx, data, law, qpos, qvel, act, qadr: int, dadr: int, steps: int, bat
     return qp, qv, bad
 
 
-frame = jax.jit(_frame, static_argnames=("qadr", "dadr", "steps", "batching"))
+# MuJoCo's own constants for a tendon wrapping a sphere or cylinder from inside (engine_util_misc.c: Newton's method
+# from z = 1 - 1e-7, 20 iterations, |f| <= 1e-6); mjx.put_model sets 5, 1e-4 and 1 - 1e-5, whose looser solution moves
+# the middle deltoid's wrap point off MuJoCo's (its length by up to 0.32 mm over 110.0-110.6 deg of elevation, the
+# cause of the backends' divergence within 2 s; docs/gpu.md). The start sits closer to 1 than MuJoCo's: MuJoCo 3.17
+# finds roots up to z = 1 - 5e-10 (measured on this model), so float64 starts at 1 - 1e-12 (lengths then agree to
+# 1e-12 m over the whole path); float32 starts at its largest value below 1.
+WRAP_INSIDE = {"float64": (20, 1e-6, 1.0 - 1e-12),
+               "float32": (20, 1e-4, float(np.nextafter(np.float32(1.0), np.float32(0.0))))}
+
+
+def wrap_inside_as_mujoco(mx, dtype: str):
+    """The MJX model `mx` with `WRAP_INSIDE[dtype]`'s inside-wrap solver settings."""
+    maxiter, tolerance, z_init = WRAP_INSIDE[dtype]
+    return mx.tree_replace({"_impl.wrap_inside_maxiter": maxiter, "_impl.wrap_inside_tolerance": tolerance,
+                            "_impl.wrap_inside_z_init": z_init})
 
 
 def _cast(tree, dtype: str):
@@ -264,17 +283,22 @@ class MjxArm:
                                     arm_.FINE_STEP_DEG))
         gravity = arm_.arm().gravity_torque(grid)  # samples of the tasks' own table (Arm) at its grid points
         with precision(self.dtype), jax.default_device(self.device):
-            self.mx = _cast(mjx.put_model(m), self.dtype)
+            self.mx = wrap_inside_as_mujoco(_cast(mjx.put_model(m), self.dtype), self.dtype)
             self.data = _cast(mjx.make_data(self.mx), self.dtype)
             self.jlaw = law_arrays(law, actuators, self.dtype)
             self.gravity = (jnp.asarray(grid, self.dtype), jnp.asarray(gravity, self.dtype))
             self.qpos0 = jnp.asarray(m.qpos0, self.dtype)
 
+        # the model and data are constants of the compiled frame, not arguments: traced, they make XLA's CPU code of
+        # mjx.forward ~10^4 x slower (2.0 ms a call against 27 s, measured; docs/gpu.md)
+        self._frame = jax.jit(partial(_frame, self.mx, self.data), static_argnames=("qadr", "dadr", "steps",
+                                                                                     "batching"))
+
     def frame(self, qpos, qvel, act):
         with precision(self.dtype):
             qpos, qvel, act = (jnp.asarray(x, self.dtype) for x in (qpos, qvel, act))
-            return frame(self.mx, self.data, self.jlaw, qpos, qvel, per_actuator(self.jlaw, act), qadr=self.qadr,
-                         dadr=self.dadr, steps=self.steps_per_frame, batching=self.batching)
+            return self._frame(self.jlaw, qpos, qvel, per_actuator(self.jlaw, act), qadr=self.qadr,
+                               dadr=self.dadr, steps=self.steps_per_frame, batching=self.batching)
 
     def qpos(self, elevation_rad):
         """(B, nq) positions on the coupled path at elevations (B,) rad (`arm.LockedPath.qpos`)."""

@@ -3,8 +3,8 @@ rewards and episode resets all on the JAX device; torch sees the observations, r
 (zero-copy where JAX and torch share the device). Needs the `[mjx]` extra.
 
     from shoulder_bench.tasks import mjx_env
-    venv = mjx_env.make("abduction_4m", 4096, device="cuda", seed=0)      # float32 on a GPU
-    venv = mjx_env.make("abduction_4m", 8, device="cpu", seed=0)          # float64 on the CPU (the tests)
+    venv = mjx_env.make("abduction_4m", 4096, device="cuda", seed=0)      # a GPU
+    venv = mjx_env.make("abduction_4m", 8, device="cpu", seed=0)          # the CPU (the tests)
 
 The protocol is the MuJoCo backend's (`tasks.vec_env.VecEnv`, the paper's): the same options, actions, observation
 (`protocol.OBSERVATION_KEYS` order), reward (`protocol.reward`), crash rule and time-outs, written once more in JAX
@@ -52,7 +52,8 @@ def from_torch(t: torch.Tensor) -> jax.Array:
 
 class MjxVecEnv(_RslVecEnv):
     """`make(name, num_envs, device, seed, **options)`: options as for `shoulder_bench.make_vec` (`trajectory` may be
-    a list with one target per copy); dtype: "float64" (default on the CPU) or "float32" (default on a GPU)."""
+    a list with one target per copy); dtype: "float64" (the default, on every device) or "float32", which this model's
+    dynamics do not survive (`mjx_sim.DTYPES`)."""
 
     def __init__(self, name: str, num_envs: int, device: str = "cpu", seed=None, trajectory=None,
                  muscle_model: str = DEFAULT_MUSCLE_MODEL, dtype: str | None = None, **options):
@@ -62,7 +63,7 @@ class MjxVecEnv(_RslVecEnv):
         seed = options_check.seed(seed)
         self.name, self.num_envs, self.device = name, int(num_envs), torch.device(device)
         self.jdev = jax_device(self.device)
-        self.dtype = check_dtype(dtype or ("float64" if self.device.type == "cpu" else "float32"))
+        self.dtype = check_dtype(dtype or "float64")
         fixed = trajectory if isinstance(trajectory, (list, tuple)) else [trajectory] * self.num_envs
         if len(fixed) != self.num_envs:
             raise ValueError(f"{len(fixed)} trajectories for {self.num_envs} environments: give one, or one per copy")

@@ -27,14 +27,11 @@ from shoulder_bench import trajectory as targets  # noqa: E402
 from shoulder_bench.tasks import TASKS, mjx_env, mjx_protocol  # noqa: E402
 
 FRAME_BOUND_RAD = 1e-6  # measured 4.1e-8 rad (4 copies, one frame; docs/gpu.md)
-# The two bounds below are what equivalence should mean, not measurements. docs/gpu.md: over the first 20 frames of
-# abduction_4m the backends differ by <= 2.3e-6 rad to frame 18, then by 2.0e-2 rad at frame 20, so the episode test
-# fails today (a divergence not yet explained); the float32 test has not been run to its end.
-EPISODE_BOUND_RAD = 1e-4
+EPISODE_BOUND_RAD = 1e-4  # measured 1.2e-6 to 5.7e-6 rad over the four tasks' 200 frames (docs/gpu.md)
 FLOAT32_BOUND_DEG = 0.5
-N = 4  # copies per env: one compiled frame serves every test of the fem tables
-# The frames, the 20 s episodes and the float32 drift compile MJX's forward dynamics (~1 min) and take minutes per task
-# on a 2-core CPU (MJX steps copies one after another there): run them with SHOULDER_BENCH_MJX_LONG=1.
+N = 4  # copies per env
+# The frames, the 20 s episodes and the float32 drift compile MJX's forward dynamics (~15 s per env) and take 4.5 min
+# together on a 2-core CPU (MJX steps copies one after another there): run them with SHOULDER_BENCH_MJX_LONG=1.
 long = pytest.mark.skipif(not os.environ.get("SHOULDER_BENCH_MJX_LONG"),
                           reason="the MJX episode tests take minutes on a CPU; set SHOULDER_BENCH_MJX_LONG=1")
 
@@ -75,6 +72,30 @@ def test_statics_and_poses_match(law, sim):
     np.testing.assert_allclose(np.asarray(sim.holding_activation(deg)), statics.holding_activation(law, deg),
                                atol=1e-9)
     np.testing.assert_allclose(np.asarray(sim.qpos(np.radians(deg))), arm_.arm().qpos(np.radians(deg)), atol=1e-14)
+
+
+def test_tendon_paths_match_mujoco_along_the_elevation(sim):
+    """The tendons' lengths on MJX equal MuJoCo's along the coupled path and just off it (the RK4 stages), the middle
+    deltoid's inside wrap of its sphere included: with mjx.put_model's own inside-wrap settings its length is off by
+    up to 0.32 mm over 110.0-110.6 deg, which made the backends diverge (docs/gpu.md)."""
+    import mujoco
+    from mujoco import mjx
+
+    deg = np.concatenate([np.arange(-30.0, 210.0, 0.5), np.arange(109.9, 110.7, 0.005)])
+    qpos = np.asarray(sim.qpos(np.radians(deg)))
+    qpos = np.concatenate([qpos, qpos + np.random.default_rng(4).normal(0.0, 1e-3, qpos.shape)])
+    m, d = sim.model, mujoco.MjData(sim.model)
+    ref = np.zeros((len(qpos), m.ntendon))
+    for k, q in enumerate(qpos):
+        d.qpos[:] = q
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_tendon(m, d)
+        ref[k] = d.ten_length
+    with mjx_sim.precision("float64"):
+        lengths = jax.jit(jax.vmap(lambda q: mjx.tendon(sim.mx, mjx.kinematics(sim.mx, sim.data.replace(qpos=q)))
+                                   .ten_length))(jnp.asarray(qpos))
+    np.testing.assert_allclose(np.asarray(lengths), ref, rtol=0, atol=1e-10)
 
 
 def test_protocol_pieces_match_the_originals():
@@ -156,6 +177,8 @@ def test_a_20_s_episode_of_every_task_matches_the_mujoco_backend(task):
 
 
 @long
+@pytest.mark.xfail(strict=True, reason="float32 cannot carry this model's dynamics: its mass matrix's condition "
+                   "number (2.7e8) exceeds float32's 1/eps; the first frame's accelerations are 0 or NaN (docs/gpu.md)")
 def test_float32_drift_over_200_frames_is_bounded():
     """float32 against float64 on the same actions: the drift of the angle over 200 frames (docs/gpu.md)."""
     task, test = "abduction_4m", targets.load_test_set()[:N]
