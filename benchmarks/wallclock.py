@@ -6,9 +6,9 @@ the frames/s.
     .venv/bin/python benchmarks/wallclock.py [--algo ppo|bdq] [--configs NAME ...] [--seeds 0 1 2]
         [--frames 600000] [--eval-every 20000] [--out runs/ppo_wallclock] [--task abduction_4m]
 
-PPO configs are overrides of `PPOConfig`'s defaults before its search (`BEFORE`: 256 envs, 5 epochs x 4 mini-batches;
-`CONFIGS` below; `default` is `BEFORE` itself; rounds 1-2 chose `e1m8t1_n64`, round 3 `n64_s12`, today's
-`PPOConfig()`). BDQ configs
+PPO configs are overrides of `PPOConfig`'s defaults before its search (`BEFORE`: 256 envs, 5 epochs x 4
+mini-batches, 24 steps; `CONFIGS` below; `default` is `BEFORE` itself; rounds 1-2 chose `e1m8t1_n64`, round 3
+`n64_s12`, today's `PPOConfig()`; round 4 tried `s12_*` from it and kept it). BDQ configs
 (`BDQ_CONFIGS`, task `abduction_4m_discrete`) are overrides of the task's preset before its search (`BDQ_BEFORE`,
 `train.dqn.PRESETS`). Runs are normal
 run folders (`<out>/<config>/<seed>`), so a rerun resumes or reuses finished ones; `<out>/table.md` is rewritten at
@@ -22,7 +22,9 @@ import json
 import statistics
 from pathlib import Path
 
-BEFORE = {"num_envs": 256, "num_learning_epochs": 5, "num_mini_batches": 4}  # PPOConfig's defaults before the search
+# PPOConfig's defaults before the search (steps_per_env pinned: round 3 changed its default to 12)
+BEFORE = {"num_envs": 256, "num_learning_epochs": 5, "num_mini_batches": 4, "steps_per_env": 24}
+S12 = {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "steps_per_env": 12}  # round 3's choice
 CONFIGS = {
     "default": {},
     "t2": {"update_threads": 2},
@@ -36,11 +38,17 @@ CONFIGS = {
     "e1m8t1_n128": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 128},
     "e1m8t1_n64": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64},
     # round 3, from round 2's choice (e1m8t1_n64): more updates per frame, smaller networks, a looser KL target
-    "n64_s12": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "steps_per_env": 12},
+    "n64_s12": S12,
     "n32": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 32},
     "n64_h128": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "hidden_dims": [128, 128, 128]},
     "n64_kl02": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "desired_kl": 0.02},
     "n64_s8": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "steps_per_env": 8},
+    # round 4, from round 3's choice (n64_s12, today's defaults): exploration noise, fewer gradient steps, the start of
+    # the adaptive learning rate, no entropy bonus
+    "s12_std025": {**S12, "init_std": 0.25},
+    "s12_m4": {**S12, "num_mini_batches": 4},
+    "s12_lr3e-3": {**S12, "learning_rate": 3e-3},
+    "s12_ent0": {**S12, "entropy_coef": 0.0},
 }
 # BDQ-4: the preset before its search (train.dqn.PRESETS["abduction_4m_discrete"] then: 32 envs, one gradient step of
 # 256 per vec step, lr 5e-4, 2 x 256)
