@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from shoulder_bench.eval import stats
+from shoulder_bench.eval.leaderboard import setting_of
 
 COLUMNS = ("task", "algorithm", "seeds", "orientation MAE (deg) [95 % CI]", "orientation RMSE (deg)",
            "plane MAE (deg)", "elevation MAE (deg)", "rotation MAE (deg)", "crashes", "frames",
@@ -38,6 +39,12 @@ def run_folders(runs: Path) -> list[Path]:
         if task in TASKS_3DOF:
             out.append(folder)
     return out
+
+
+def setting_key(cfg: dict) -> str:
+    """A run's row: runs pool only when their algorithm config and options agree, seeds and budgets apart
+    (`leaderboard.setting_of`, which also drops the seed DQN's config repeats)."""
+    return json.dumps(setting_of({"config": cfg.get("config"), "options": cfg.get("options")}), sort_keys=True)
 
 
 def _variant(setting: str, settings: list[str]) -> str:
@@ -101,9 +108,7 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
         policy, _ = load_policy(str(folder / "policy.pt"))
         score = evaluate(policy, cfg["task"], test_of(cfg["task"]), options=cfg.get("options") or None)
         metrics = json.loads((folder / "metrics.json").read_text()) if (folder / "metrics.json").exists() else {}
-        # one row per setting: runs pool only when their algorithm config and options agree (seeds, budgets apart)
-        setting = json.dumps({"config": cfg.get("config"), "options": cfg.get("options")}, sort_keys=True)
-        g = groups[(cfg["task"], cfg["algo"].upper(), setting)]
+        g = groups[(cfg["task"], cfg["algo"].upper(), setting_key(cfg))]
         g[0].append(score)
         g[1].append(metrics)
     for path, policy, meta in agents:  # a shipped agent's record (its source run's metrics) lies beside it

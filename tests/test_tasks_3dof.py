@@ -220,6 +220,15 @@ def test_board_rows_of_different_settings_do_not_pool():
     assert _variant(a, [a, b]) == " (error_features=True)" and _variant(b, [a]) == ""
 
 
+def test_board_pools_seeds_of_one_setting():
+    from shoulder_bench.eval.board3 import setting_key
+
+    bdq = {"task": "track_3dof_discrete", "algo": "bdq", "options": {}, "config": {"lr": 5e-4, "branching": True}}
+    seeds = [{**bdq, "seed": s, "config": {**bdq["config"], "seed": s}} for s in (0, 1)]  # DQN's config repeats it
+    assert setting_key(seeds[0]) == setting_key(seeds[1])
+    assert setting_key(seeds[0]) != setting_key({**bdq, "config": {**bdq["config"], "lr": 1e-3}})
+
+
 def test_scapular_plane_task_is_tested_on_the_paper_test_set_in_the_scapular_plane():
     from shoulder_bench.trajectory import load_test_set
 
