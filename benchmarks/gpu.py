@@ -20,6 +20,7 @@ import torch
 
 import shoulder_bench
 from shoulder_bench.eval.evaluate import evaluate
+from shoulder_bench.mjx_sim import DEFAULT_DTYPE
 from shoulder_bench.tasks import mjx_env
 from shoulder_bench.train import ppo
 from shoulder_bench.trajectory import load_test_set
@@ -135,7 +136,7 @@ def main() -> None:
     print(f"mujoco cpu N={ref_n}: {ref:,.0f} frames/s", flush=True)
     for n in sizes:
         rate, first = throughput(lambda k: mjx_env.make(TASK, k, device=str(device), seed=0), n, frames, device)
-        rows.append(("mjx", str(device), n, "float64", first, rate))  # mjx_env's default dtype on every device
+        rows.append(("mjx", str(device), n, DEFAULT_DTYPE, first, rate))  # mjx_env's default
         print(f"mjx {device} N={n}: {rate_text(rate)} frames/s (first 3 steps {first:.1f} s)", flush=True)
     result = None
     if not a.skip_ppo:

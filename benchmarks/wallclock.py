@@ -24,7 +24,8 @@ from pathlib import Path
 
 # PPOConfig's defaults before the search (steps_per_env pinned: round 3 changed its default to 12)
 BEFORE = {"num_envs": 256, "num_learning_epochs": 5, "num_mini_batches": 4, "steps_per_env": 24}
-S12 = {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "steps_per_env": 12}  # round 3's choice
+N64 = {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64}  # rounds 1-2's choice
+S12 = {**N64, "steps_per_env": 12}  # round 3's choice
 CONFIGS = {
     "default": {},
     "t2": {"update_threads": 2},
@@ -36,13 +37,13 @@ CONFIGS = {
     "e1m4t1": {"num_learning_epochs": 1},
     "e2m8t1": {"num_learning_epochs": 2, "num_mini_batches": 8},
     "e1m8t1_n128": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 128},
-    "e1m8t1_n64": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64},
+    "e1m8t1_n64": N64,
     # round 3, from round 2's choice (e1m8t1_n64): more updates per frame, smaller networks, a looser KL target
     "n64_s12": S12,
-    "n32": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 32},
-    "n64_h128": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "hidden_dims": [128, 128, 128]},
-    "n64_kl02": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "desired_kl": 0.02},
-    "n64_s8": {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64, "steps_per_env": 8},
+    "n32": {**N64, "num_envs": 32},
+    "n64_h128": {**N64, "hidden_dims": [128, 128, 128]},
+    "n64_kl02": {**N64, "desired_kl": 0.02},
+    "n64_s8": {**N64, "steps_per_env": 8},
     # round 4, from round 3's choice (n64_s12, today's defaults): exploration noise, fewer gradient steps, the start of
     # the adaptive learning rate, no entropy bonus
     "s12_std025": {**S12, "init_std": 0.25},

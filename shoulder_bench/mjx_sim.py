@@ -40,6 +40,7 @@ from shoulder_bench import arm as arm_
 from shoulder_bench.muscle import FV_MAX
 
 DTYPES = ("float64", "float32")
+DEFAULT_DTYPE = "float64"  # on every device: float32 does not carry this model (module docstring)
 RK4_STAGE_A = (0.0, 0.5, 0.5, 1.0)  # each stage's state = start + (previous stage's derivative x a) h (MuJoCo's RK4)
 RK4_B = (1 / 6, 1 / 3, 1 / 3, 1 / 6)
 MAX_ACCELERATION = 1e10  # MuJoCo's mjMAXVAL: beyond it MuJoCo resets the copy (the single env's crash)
@@ -250,7 +251,7 @@ class MjxArm:
     joint_damping: viscous damping (N m s/rad) of the elevation joint (the task option). batching: how a batch's
     forward dynamics run, "vmap" or "map" (`_accelerations`; default "map" on the CPU, "vmap" elsewhere)."""
 
-    def __init__(self, law, dtype: str = "float64", joint_damping: float = 0.0, device=None,
+    def __init__(self, law, dtype: str = DEFAULT_DTYPE, joint_damping: float = 0.0, device=None,
                  batching: str | None = None):
         self.dtype = check_dtype(dtype)
         self.device = device if device is not None else jax.devices()[0]
@@ -289,16 +290,15 @@ class MjxArm:
             self.gravity = (jnp.asarray(grid, self.dtype), jnp.asarray(gravity, self.dtype))
             self.qpos0 = jnp.asarray(m.qpos0, self.dtype)
 
-        # the model and data are constants of the compiled frame, not arguments: traced, they make XLA's CPU code of
-        # mjx.forward ~10^4 x slower (2.0 ms a call against 27 s, measured; docs/gpu.md)
-        self._frame = jax.jit(partial(_frame, self.mx, self.data), static_argnames=("qadr", "dadr", "steps",
-                                                                                     "batching"))
+        # the model, data and layout are constants of the compiled frame, not arguments: traced, the model makes XLA's
+        # CPU code of mjx.forward ~10^4 x slower (2.0 ms a call against 27 s, measured; docs/gpu.md)
+        self._frame = jax.jit(partial(_frame, self.mx, self.data, qadr=self.qadr, dadr=self.dadr,
+                                      steps=self.steps_per_frame, batching=self.batching))
 
     def frame(self, qpos, qvel, act):
         with precision(self.dtype):
             qpos, qvel, act = (jnp.asarray(x, self.dtype) for x in (qpos, qvel, act))
-            return self._frame(self.jlaw, qpos, qvel, per_actuator(self.jlaw, act), qadr=self.qadr,
-                               dadr=self.dadr, steps=self.steps_per_frame, batching=self.batching)
+            return self._frame(self.jlaw, qpos, qvel, per_actuator(self.jlaw, act))
 
     def qpos(self, elevation_rad):
         """(B, nq) positions on the coupled path at elevations (B,) rad (`arm.LockedPath.qpos`)."""

@@ -24,7 +24,7 @@ from tensordict import TensorDict
 from shoulder_bench import arm as arm_
 from shoulder_bench import protocol
 from shoulder_bench import trajectory as targets
-from shoulder_bench.mjx_sim import MjxArm, check_dtype, precision
+from shoulder_bench.mjx_sim import DEFAULT_DTYPE, MjxArm, check_dtype, precision
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
 from shoulder_bench.tasks import TASKS, check_name, mjx_protocol
 from shoulder_bench.tasks import options as options_check
@@ -63,7 +63,7 @@ class MjxVecEnv(_RslVecEnv):
         seed = options_check.seed(seed)
         self.name, self.num_envs, self.device = name, int(num_envs), torch.device(device)
         self.jdev = jax_device(self.device)
-        self.dtype = check_dtype(dtype or "float64")
+        self.dtype = check_dtype(dtype or DEFAULT_DTYPE)
         fixed = trajectory if isinstance(trajectory, (list, tuple)) else [trajectory] * self.num_envs
         if len(fixed) != self.num_envs:
             raise ValueError(f"{len(fixed)} trajectories for {self.num_envs} environments: give one, or one per copy")
