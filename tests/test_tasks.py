@@ -16,6 +16,15 @@ def test_names_and_unknown_name():
         shoulder_bench.load("abduction_4mm")
 
 
+def test_tasks_command_lists_every_task_by_name(capsys):
+    """`shoulder-bench tasks` prints one line per loadable task, the full shoulder's 3-DOF tasks included."""
+    from shoulder_bench.cli import main
+
+    assert main(["tasks"]) == 0
+    listed = [line.split()[0] for line in capsys.readouterr().out.splitlines()]
+    assert listed == shoulder_bench.list_tasks() and "track_3dof" in listed and "abduction_4m" in listed
+
+
 @pytest.mark.parametrize("name", TASKS)
 def test_protocol(name):
     env = shoulder_bench.load(name, split="train", seed=0)

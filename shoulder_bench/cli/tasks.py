@@ -21,7 +21,7 @@ def add_parser(sub) -> None:
 
 
 def _tasks(args) -> int:
-    from shoulder_bench.tasks import TASKS
+    from shoulder_bench.tasks import describe, list_tasks
 
     if getattr(args, "options", False):
         from shoulder_bench.tasks.options import DEFAULTS, OPTIONS
@@ -32,9 +32,10 @@ def _tasks(args) -> int:
         for name, accepts in OPTIONS.items():
             print(f"{name:<{width}}  {accepts}; default {DEFAULTS[name]!r}")
         return 0
-    width = max(map(len, TASKS))
-    for name, (_, _, text) in TASKS.items():
-        print(f"{name:<{width}}  {text}")
+    names = list_tasks()  # the 1-DOF tasks and the full shoulder's 3-DOF ones
+    width = max(map(len, names))
+    for name in names:
+        print(f"{name:<{width}}  {describe(name)}")
     return 0
 
 
