@@ -8,7 +8,7 @@ the frames/s.
 
 PPO configs are overrides of `PPOConfig`'s defaults before its search (`BEFORE`: 256 envs, 5 epochs x 4
 mini-batches, 24 steps; `CONFIGS` below; `default` is `BEFORE` itself; rounds 1-2 chose `e1m8t1_n64`, round 3
-`n64_s12`, today's `PPOConfig()`; round 4 tried `s12_*` from it and kept it). BDQ configs
+`n64_s12`; round 4 tried `s12_*` from it and kept it; round 5 chose `s12_fused`, today's `PPOConfig()`). BDQ configs
 (`BDQ_CONFIGS`, task `abduction_4m_discrete`) are overrides of the task's preset before its search (`BDQ_BEFORE`,
 `train.dqn.PRESETS`). Runs are normal
 run folders (`<out>/<config>/<seed>`), so a rerun resumes or reuses finished ones; `<out>/table.md` is rewritten at
@@ -22,8 +22,9 @@ import json
 import statistics
 from pathlib import Path
 
-# PPOConfig's defaults before the search (steps_per_env pinned: round 3 changed its default to 12)
-BEFORE = {"num_envs": 256, "num_learning_epochs": 5, "num_mini_batches": 4, "steps_per_env": 24}
+# PPOConfig's defaults before the search (pinned where a round changed the default: steps_per_env in round 3, the
+# optimiser in round 5)
+BEFORE = {"num_envs": 256, "num_learning_epochs": 5, "num_mini_batches": 4, "steps_per_env": 24, "fused_adam": False}
 N64 = {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64}  # rounds 1-2's choice
 S12 = {**N64, "steps_per_env": 12}  # round 3's choice
 CONFIGS = {
@@ -50,6 +51,11 @@ CONFIGS = {
     "s12_m4": {**S12, "num_mini_batches": 4},
     "s12_lr3e-3": {**S12, "learning_rate": 3e-3},
     "s12_ent0": {**S12, "entropy_coef": 0.0},
+    # round 5: torch's fused Adam (benchmarks/ppo_update.py), alone, with round 4's fewer mini-batches and with 2
+    # torch threads in the update
+    "s12_fused": {**S12, "fused_adam": True},
+    "s12_m4_fused": {**S12, "num_mini_batches": 4, "fused_adam": True},
+    "s12_fused_t2": {**S12, "fused_adam": True, "update_threads": 2},
 }
 # BDQ-4: the preset before its search (train.dqn.PRESETS["abduction_4m_discrete"] then: 32 envs, one gradient step of
 # 256 per vec step, lr 5e-4, 2 x 256)

@@ -101,7 +101,8 @@ def test_resume_of_a_finished_run_checks_its_identity_too(tmp_path):
 
 def test_a_run_recorded_before_a_config_field_existed_is_the_run_with_its_old_value(tmp_path):
     """`run.ADDED_FIELDS`: a PPO run whose config.json predates `update_threads` ran with 1 thread in the update, so it
-    resumes as the run asking for 1 and refuses one asking for 2."""
+    resumes as the run asking for 1 and refuses one asking for 2; one that predates `fused_adam` ran rsl-rl's Adam, so
+    it refuses today's default (fused) and resumes as the run asking for the old optimiser."""
     import json
 
     cfg = _file(tmp_path, PPO)
@@ -114,6 +115,12 @@ def test_a_run_recorded_before_a_config_field_existed_is_the_run_with_its_old_va
     with pytest.raises(ValueError, match=r"update_threads = 1; this command asks for 2"):
         train("abduction_ssp", "ppo", frames=128, out=out, resume=True,
               config=_file(tmp_path, {**PPO, "update_threads": 2}, "t2.json"))
+    del recorded["config"]["fused_adam"]
+    (out / "config.json").write_text(json.dumps(recorded))
+    with pytest.raises(ValueError, match=r"fused_adam = False; this command asks for True"):
+        train("abduction_ssp", "ppo", frames=128, out=out, config=cfg, resume=True)
+    old = _file(tmp_path, {**PPO, "fused_adam": False}, "foreach.json")
+    assert train("abduction_ssp", "ppo", frames=128, out=out, config=old, resume=True) == first
 
 
 @pytest.mark.parametrize("kw,message", [

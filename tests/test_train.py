@@ -146,3 +146,35 @@ def test_wall_time_to_accuracy_is_recorded_logged_and_printed(tmp_path, monkeypa
     printed = capsys.readouterr().out.splitlines()[-1]
     assert "evaluations excluded" in printed and f"1000 deg {reached['wall_s']:.1f} s (256 frames)" in printed
     assert "2 deg not reached" in printed and "1e-06 deg not reached" in printed
+
+
+def test_fused_adam_takes_the_same_steps_as_rsl_rls_adam_and_is_what_training_uses(tmp_path, monkeypatch):
+    """`ppo.fuse_optimizer` swaps rsl-rl's Adam for torch's fused one over the same parameters and learning rate: the
+    same updates up to rounding; `train` installs it by default (`fused_adam`) and not with `fused_adam: false`."""
+    from types import SimpleNamespace
+
+    from shoulder_bench.train import ppo
+
+    torch.manual_seed(0)
+    nets = [torch.nn.Sequential(torch.nn.Linear(5, 32), torch.nn.ReLU(), torch.nn.Linear(32, 2)) for _ in range(2)]
+    nets[1].load_state_dict(nets[0].state_dict())
+    algs = [SimpleNamespace(optimizer=torch.optim.Adam(net.parameters(), lr=3e-3)) for net in nets]
+    ppo.fuse_optimizer(algs[1])
+    assert algs[1].optimizer.defaults["fused"] and not algs[0].optimizer.defaults["fused"]
+    assert algs[1].optimizer.param_groups[0]["lr"] == 3e-3
+    x = torch.randn(64, 5)
+    start = nets[0][0].weight.detach().clone()
+    for _ in range(50):
+        for net, alg in zip(nets, algs):
+            alg.optimizer.zero_grad()
+            net(x).pow(2).sum().backward()
+            alg.optimizer.step()
+    assert (nets[0][0].weight - start).abs().max() > 1e-2  # the steps did move the weights
+    assert (nets[0][0].weight - nets[1][0].weight).abs().max() < 1e-5
+    seen = []
+    monkeypatch.setattr(ppo, "fuse_optimizer", lambda alg: seen.append(alg))
+    train("abduction_ssp", "ppo", frames=128, out=tmp_path / "fused", config=_config(tmp_path), eval_every=10**9)
+    assert len(seen) == 1
+    train("abduction_ssp", "ppo", frames=128, out=tmp_path / "foreach", config=_config(tmp_path, fused_adam=False),
+          eval_every=10**9)
+    assert len(seen) == 1
