@@ -45,12 +45,11 @@ def rollout_and_alg(task: str):
     return alg
 
 
-def timed_update(alg, storage, fused: bool, threads: int) -> float:
-    """Seconds of one `alg.update()` from the given networks and storage (copies: every call starts alike)."""
+def timed_update(alg, fused: bool, threads: int) -> float:
+    """Seconds of one `alg.update()` on a copy of `alg` (networks, optimiser, storage: every call starts alike)."""
     from shoulder_bench.train import ppo
 
     a = copy.deepcopy(alg)
-    a.storage = copy.deepcopy(storage)
     if fused:
         ppo.fuse_optimizer(a)
     before = torch.get_num_threads()
@@ -78,7 +77,7 @@ def main(argv=None) -> int:
     times = {v: [] for v in variants}
     for _ in range(args.repeats):
         for v in variants:
-            times[v].append(timed_update(alg, storage, v[1], v[2]))
+            times[v].append(timed_update(alg, v[1], v[2]))
     base = statistics.median(times[variants[0]])
     print(f"task {args.task}, default PPO config, one update of {storage.num_envs} envs x "
           f"{storage.num_transitions_per_env} steps, {args.repeats} repeats interleaved")

@@ -32,7 +32,7 @@ TASK = "abduction_4m"
 
 def batched_rate(venv, frames: int, gen: torch.Generator, starts: list | None = None) -> tuple[float, int]:
     """Frames/s of the batched env over `frames` frames, and how many episodes ended (auto-reset) inside them.
-    starts: a list that receives (qpos, qvel) each frame started from (copied after the timing)."""
+    starts: a list that receives a copy of (qpos, qvel) each frame started from (the copies count in the timing)."""
     check_counts(frames=frames)
     n = venv.num_envs
     for _ in range(2):

@@ -201,9 +201,9 @@ def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval,
 
 def fuse_optimizer(alg) -> None:
     """Swap rsl-rl's Adam (torch's multi-tensor `foreach` step) for torch's fused Adam over the same parameters, at
-    the same learning rate: the same update up to rounding, and on 2 CPU cores its step takes 0.66 against 1.81 ms of
-    a 6.4 ms mini-batch (3 x 250 actor and critic, 96 samples; docs/training.md "Round 5"). The state dict has the
-    same layout, so checkpoints load either way."""
+    the same learning rate: the same update up to rounding, one update of the default config in 0.78 x the time
+    (`benchmarks/ppo_update.py`, docs/training.md "Round 5"). The state dict has the same layout, so checkpoints load
+    either way."""
     groups = alg.optimizer.param_groups
     params = [p for group in groups for p in group["params"]]
     alg.optimizer = torch.optim.Adam(params, lr=groups[0]["lr"], fused=True)

@@ -33,10 +33,9 @@ from shoulder_bench.locks import LOCK, FolderLock  # noqa: F401 (FolderLock: whe
 CHECKPOINT = "checkpoint.pt"
 IDENTITY = ("task", "algo", "seed", "muscle_model", "options", "model_version", "config", "init_from")
 BUDGET_FREE = ("frames",)  # algorithm config fields that are the run's budget, not its identity (DQN's `frames`)
-# config fields added after runs were recorded, with the value those runs had (their behaviour then): a run recorded
-# without one is the same run as one asking for that value
-# PPO config fields added after runs were recorded, with the value those runs had: torch threads in the update (1),
-# rsl-rl's foreach Adam (fused_adam False)
+# PPO config fields added after runs were recorded, with the value those runs had (their behaviour then): a run
+# recorded without one is the same run as one asking for that value. Torch threads in the update (1), rsl-rl's foreach
+# Adam (fused_adam False)
 ADDED_FIELDS = {"update_threads": 1, "fused_adam": False}
 
 
