@@ -2,10 +2,12 @@
 setting) over its seeds, and the reference controller, each evaluated now on its task's fixed test set
 (`tasks.fixed_test_set`: the 3-DOF one; the scapular-plane task: the 1-DOF one in the scapular plane).
 
-Columns: the humerus orientation error (MAE with a 95 % bootstrap interval over seeds, RMSE), the error of each
-coordinate (plane of elevation, elevation, axial rotation; MAE over the frames that did not crash), crashes, frames
-and the run's wall time (its periodic test evaluations included). The main board (`eval.leaderboard`) keeps the
-1-DOF tasks; its measures (saw-tooth, combing, suites) are not defined here yet.
+Columns: the success rate, the humerus orientation error (MAE with a 95 % bootstrap interval over seeds, RMSE), the
+error of each coordinate (plane of elevation, elevation, axial rotation; MAE over the frames that did not crash),
+effort, saw-tooth and mean |delta a| (`eval.measures`, as the 1-DOF board's; success on the orientation error),
+crashes, frames and the run's wall time (its periodic test evaluations included). The main board
+(`eval.leaderboard`) keeps the 1-DOF tasks; its co-contraction, combing and suite columns are not defined here yet
+(co-contraction needs a sign of a three-component torque; the suites are 1-DOF targets).
 """
 from __future__ import annotations
 
@@ -18,9 +20,25 @@ import numpy as np
 from shoulder_bench.eval import stats
 from shoulder_bench.eval.leaderboard import setting_of
 
-COLUMNS = ("task", "algorithm", "seeds", "orientation MAE (deg) [95 % CI]", "orientation RMSE (deg)",
-           "plane MAE (deg)", "elevation MAE (deg)", "rotation MAE (deg)", "crashes", "frames",
+COLUMNS = ("task", "algorithm", "seeds", "success", "orientation MAE (deg) [95 % CI]", "orientation RMSE (deg)",
+           "plane MAE (deg)", "elevation MAE (deg)", "rotation MAE (deg)", "effort (Σa² per frame)",
+           "saw-tooth (sign changes/s)", "mean abs Δa per frame", "crashes", "frames",
            "run wall (s, evaluations included)")
+MEASURES = ("success", "effort", "sawtooth_per_s", "mean_abs_delta")
+
+
+def score_of(policy, task: str, test: list, options: dict | None = None) -> dict:
+    """`evaluate` with a recorded trace, plus the board's measures of it (the trace itself dropped)."""
+    from shoulder_bench.eval import measures
+    from shoulder_bench.eval.evaluate import evaluate
+
+    score = evaluate(policy, task, test, options=options, record=True)
+    trace = score.pop("trace")
+    frames = [t.frames for t in test]
+    ok = measures.successes(measures.tracking_error(trace, frames), frames)
+    return score | {"success": float(ok.mean()), "effort": measures.effort(trace["activation"]),
+                    "sawtooth_per_s": measures.sawtooth_rate(trace["activation"]),
+                    "mean_abs_delta": measures.mean_abs_delta(trace["activation"])}
 
 
 def run_folders(runs: Path) -> list[Path]:
@@ -64,6 +82,7 @@ def _row(task: str, algo: str, scores: list[dict], metrics: list[dict]) -> dict:
                                                                                          "rotation")}
     return {"task": task, "algorithm": algo, "seeds": len(scores), "mae": float(np.mean(mae)), "ci": (lo, hi),
             "rmse": float(np.mean([s["rmse_deg"] for s in scores])), **coord,
+            **{k: float(np.mean([s[k] for s in scores])) for k in MEASURES},
             "crashes": int(sum(s["crashes"] for s in scores)),
             "frames": [m.get("frames") for m in metrics if m], "wall_s": [m.get("wall_s") for m in metrics if m]}
 
@@ -85,7 +104,6 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
     fewer)."""
     from tqdm import tqdm
 
-    from shoulder_bench.eval.evaluate import evaluate
     from shoulder_bench.eval.reference3 import ReferenceController3
     from shoulder_bench.tasks import TASKS_3DOF, fixed_test_set
     from shoulder_bench.train.policy import load_policy
@@ -106,7 +124,7 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
     for folder in tqdm(folders, desc="evaluating 3-DOF runs", disable=not progress):
         cfg = json.loads((folder / "config.json").read_text())
         policy, _ = load_policy(str(folder / "policy.pt"))
-        score = evaluate(policy, cfg["task"], test_of(cfg["task"]), options=cfg.get("options") or None)
+        score = score_of(policy, cfg["task"], test_of(cfg["task"]), options=cfg.get("options") or None)
         metrics = json.loads((folder / "metrics.json").read_text()) if (folder / "metrics.json").exists() else {}
         g = groups[(cfg["task"], cfg["algo"].upper(), setting_key(cfg))]
         g[0].append(score)
@@ -114,14 +132,14 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
     for path, policy, meta in agents:  # a shipped agent's record (its source run's metrics) lies beside it
         record = path.with_suffix(".json")
         metrics = json.loads(record.read_text()) if record.exists() else {}
-        score = evaluate(policy, meta["task"], test_of(meta["task"]), options=meta.get("options") or None)
+        score = score_of(policy, meta["task"], test_of(meta["task"]), options=meta.get("options") or None)
         g = groups[(meta["task"], f"{str(meta.get('algo', '')).upper()} (shipped agent {path.stem})", "")]
         g[0].append(score)
         g[1].append(metrics)
     rows = [_row(task, algo + _variant(setting, [s for t, a, s in groups if (t, a) == (task, algo)]),
                  *groups[(task, algo, setting)]) for task, algo, setting in sorted(groups)]
     for task in sorted({t for t, _, _ in groups if not TASKS_3DOF[t][1]}):  # the continuous tasks' reference
-        score = evaluate(ReferenceController3(task), task, test_of(task))
+        score = score_of(ReferenceController3(task), task, test_of(task))
         rows.append(_row(task, "reference controller", [score], []))
     return rows
 
@@ -130,14 +148,19 @@ def _cells(r: dict) -> list[str]:
     ci = "" if np.isnan(r["ci"][0]) else f" [{r['ci'][0]:.2f}, {r['ci'][1]:.2f}]"
     frames = ", ".join(f"{f:,}" for f in r["frames"] if f) or "-"
     wall = ", ".join(f"{w:.0f}" for w in r["wall_s"] if w) or "-"
-    return [r["task"], r["algorithm"], str(r["seeds"]), f"{r['mae']:.2f}{ci}", f"{r['rmse']:.2f}",
-            f"{r['plane']:.2f}", f"{r['elevation']:.2f}", f"{r['rotation']:.2f}", str(r["crashes"]), frames, wall]
+    return [r["task"], r["algorithm"], str(r["seeds"]), f"{r['success']:.0%}", f"{r['mae']:.2f}{ci}",
+            f"{r['rmse']:.2f}", f"{r['plane']:.2f}", f"{r['elevation']:.2f}", f"{r['rotation']:.2f}",
+            f"{r['effort']:.3f}", f"{r['sawtooth_per_s']:.2f}", f"{r['mean_abs_delta']:.4f}", str(r["crashes"]),
+            frames, wall]
 
 
 NOTE = ("3-DOF rows: evaluated now on their task's fixed 100-trajectory test set (eval/data/test_set_3dof.csv; "
         "elevate_scapular_plane_12m: the 1-DOF test set's elevations in the scapular plane at rotation 0); the "
         "orientation error is the angle between the achieved and the target humerus orientation; each coordinate's "
-        "MAE excludes crashed frames; the interval is the 95 % bootstrap over seeds (none for one seed).")
+        "MAE excludes crashed frames; the interval is the 95 % bootstrap over seeds (none for one seed). Success: the "
+        "share of test trajectories whose orientation error stays under 2 deg on at least 90 % of their frames "
+        "(frames after a crash fail); effort, saw-tooth and mean abs Δa as in the main board; with several seeds, "
+        "means over seeds.")
 
 
 def markdown(rows: list[dict]) -> str:

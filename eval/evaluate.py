@@ -137,7 +137,9 @@ def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: st
     error: |angle - target| on the 1-DOF tasks, the humerus orientation error on the 3-DOF ones).
 
     record=True adds "trace": angle_deg, target_deg (B, T) and activation (B, T, n) after each frame, NaN after a
-    trajectory's end or crash. options: further task options (alpha, init, ...), as the policy was trained with.
+    trajectory's end or crash; on the 3-DOF tasks angle_deg and target_deg are (B, T, 3) (plane, elevation,
+    rotation) and "error_deg" (B, T) is the orientation error the score is made of. options: further task options
+    (alpha, init, ...), as the policy was trained with.
     Trajectory k runs as a copy seeded seed + k: its draws (randomize, obs_noise_deg) are fixed by the seed."""
     import shoulder_bench
 
@@ -145,9 +147,6 @@ def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: st
     venv = shoulder_bench.make_vec(task, len(trajectories), seed=seed, trajectory=list(trajectories), **options)
     from shoulder_bench.tasks import is_3dof
 
-    if record and is_3dof(task):
-        venv.close()
-        raise ValueError(f"{task}: recording traces is offered on the 1-DOF tasks only (yet)")
     n = len(trajectories)
     frames = venv.episode_frames.copy()
     err = np.full((n, int(frames.max())), np.nan)
@@ -157,8 +156,11 @@ def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: st
     active = np.ones(n, dtype=bool)
     obs = venv.get_observations()["policy"]
     if record:
-        trace = {"angle_deg": np.full(err.shape, np.nan), "target_deg": np.full(err.shape, np.nan),
+        coords = err.shape + (3,) if per_coordinate else err.shape
+        trace = {"angle_deg": np.full(coords, np.nan), "target_deg": np.full(coords, np.nan),
                  "activation": np.full(err.shape + (venv.n,), np.nan)}
+        if per_coordinate:
+            trace["error_deg"] = np.full(err.shape, np.nan)
     with torch.inference_mode():
         for k in range(int(frames.max())):
             action = policy(obs)
@@ -174,6 +176,8 @@ def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: st
                 trace["angle_deg"][live, k] = venv.last_angle_deg[live]
                 trace["target_deg"][live, k] = venv.last_target_deg[live]
                 trace["activation"][live, k] = venv.last_activation[live]
+                if per_coordinate:
+                    trace["error_deg"][live, k] = e[live]
             for i in np.flatnonzero(now_crashed):
                 err[i, k:frames[i]] = protocol.CRASH_ERROR_DEG
             crashed |= now_crashed

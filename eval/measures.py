@@ -8,8 +8,9 @@
   arm below 45 deg against at or above it. The paper sees ssp and isp initiate abduction and fade beyond it.
 
 The ranking measures (issue 14 §3; docs/ranking.md):
-- Success: a trajectory succeeds when its tracking error |angle - target| is under SUCCESS_DEG (2 deg) on at least
-  SUCCESS_SHARE (90 %) of its frames; the frames after a crash count as failed. The success rate is the share of
+- Success: a trajectory succeeds when its tracking error |angle - target| (on the 3-DOF tasks the humerus
+  orientation error) is under SUCCESS_DEG (2 deg) on at least SUCCESS_SHARE (90 %) of its frames; the frames after a
+  crash count as failed. The success rate is the share of
   trajectories that succeed.
 - Effort: the mean over recorded frames of the summed squared activations, sum_i a_i^2 (per frame, not per muscle).
 - Mean |delta a|: the mean over muscles and consecutive recorded frames of |a_t - a_(t-1)| (activation per frame).
@@ -63,9 +64,11 @@ def early_late_share(angle_deg: np.ndarray, activation: np.ndarray, muscles: lis
 
 
 def tracking_error(trace: dict, frames) -> np.ndarray:
-    """(B, T) |angle - target| (deg) of a recorded evaluation as the evaluation scores it: the frames after a crash
+    """(B, T) tracking error (deg) of a recorded evaluation as the evaluation scores it — |angle - target|, or the
+    trace's "error_deg" where it has one (the 3-DOF tasks' orientation error) — with the frames after a crash
     (recorded NaN up to the trajectory's frames[b]) at the crash error, NaN after the trajectory's end."""
-    err = np.abs(np.asarray(trace["angle_deg"], float) - np.asarray(trace["target_deg"], float))
+    err = (np.asarray(trace["error_deg"], float) if "error_deg" in trace
+           else np.abs(np.asarray(trace["angle_deg"], float) - np.asarray(trace["target_deg"], float)))
     frames = np.asarray(frames, dtype=int)
     if err.ndim != 2 or len(frames) != len(err) or (frames > err.shape[1]).any() or (frames < 1).any():
         raise ValueError(f"tracking_error: a (B, T) trace {err.shape} and B frame counts in 1..T; got {frames.shape}")

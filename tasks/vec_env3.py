@@ -70,6 +70,9 @@ class VecEnv3(Lockstep):
         self.last_error_deg = np.zeros(self.num_envs)
         self.last_crashed = np.zeros(self.num_envs, dtype=bool)
         self.last_coordinate_error_deg = np.zeros((self.num_envs, 3))
+        self.last_angle_deg = np.zeros((self.num_envs, 3))
+        self.last_target_deg = np.zeros((self.num_envs, 3))
+        self.last_activation = np.zeros((self.num_envs, self.n))
         self._reset(np.arange(self.num_envs))
 
     def _reset(self, idx: np.ndarray) -> None:
@@ -115,8 +118,10 @@ class VecEnv3(Lockstep):
         reward[crashed] = -protocol.CRASH_ERROR_DEG * (self.episode_frames[crashed] - self.frames[crashed] + 1)
         self.last_error_deg, self.last_crashed = err, crashed
         rows = np.arange(self.num_envs)  # per coordinate |achieved - target| (deg), for the board's columns
-        self.last_coordinate_error_deg = np.abs(angles - self.targets[rows, np.minimum(self.frames,
-                                                                                       self.episode_frames)])
+        target_now = self.targets[rows, np.minimum(self.frames, self.episode_frames)]
+        self.last_coordinate_error_deg = np.abs(angles - target_now)
+        # what evaluate(record=True) traces: this frame's coordinates, target and activations, before any auto-reset
+        self.last_angle_deg, self.last_target_deg, self.last_activation = angles, target_now, self.act.copy()
         self._return += reward
         timeout = self.frames >= self.episode_frames
         done = crashed | timeout

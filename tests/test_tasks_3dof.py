@@ -172,7 +172,31 @@ def test_ppo_trains_and_evaluates_on_the_3dof_test_set(tmp_path):
     rows = board3.collect(tmp_path, test=trajectory3.load_test_set()[:2])
     assert [r["algorithm"] for r in rows] == ["PPO", "reference controller"]
     assert all(np.isfinite(r[k]) for r in rows for k in ("mae", "plane", "elevation", "rotation"))
+    assert all(np.isfinite(r[k]) for r in rows for k in board3.MEASURES) and 0 <= rows[0]["success"] <= 1
     assert "| track_3dof | PPO | 1 |" in board3.markdown(rows) and "<table>" in board3.html(rows)
+
+
+def test_a_recorded_3dof_evaluation_gives_the_boards_measures():
+    """evaluate(record=True) on a 3-DOF task: coordinates (B, T, 3), the orientation error the score is made of, the
+    activations; the board's success, effort, saw-tooth and mean |delta a| follow from it (eval.measures)."""
+    from shoulder_bench.eval import board3, measures
+    from shoulder_bench.eval.evaluate import evaluate
+    from shoulder_bench.eval.reference3 import ReferenceController3
+
+    test = [trajectory3.Trajectory3(t.angle_deg[:31], t.velocity_deg_s[:31], name=t.name)
+            for t in trajectory3.load_test_set()[:2]]  # the first 3 s of two test trajectories
+    score = evaluate(ReferenceController3("track_3dof"), "track_3dof", test, record=True)
+    trace = score["trace"]
+    assert trace["angle_deg"].shape == trace["target_deg"].shape == (2, 30, 3)
+    assert trace["activation"].shape == (2, 30, len(full_arm.MUSCLES)) and trace["error_deg"].shape == (2, 30)
+    np.testing.assert_allclose(np.nanmean(trace["error_deg"]), score["mae_deg"], rtol=1e-9)  # no crash here
+    err = measures.tracking_error(trace, [30, 30])
+    np.testing.assert_array_equal(err, trace["error_deg"])
+    assert measures.successes(err, [30, 30]).tolist() == [bool((e < 2).mean() >= 0.9) for e in err]
+    assert not measures.successes(err + 2.0, [30, 30]).any()  # 2 deg worse everywhere: nothing succeeds
+    row = board3.score_of(ReferenceController3("track_3dof"), "track_3dof", test)
+    assert "trace" not in row and row["mae_deg"] == pytest.approx(score["mae_deg"])
+    assert row["effort"] == pytest.approx(measures.effort(trace["activation"])) and row["sawtooth_per_s"] >= 0
 
 
 def test_render_a_3dof_episode(tmp_path):
