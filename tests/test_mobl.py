@@ -33,7 +33,7 @@ def myoarm_table():
     return ReferenceTables.load().values
 
 
-MYOARM_PATHS = [t for t in D.MUSCLES if t not in D.PATH_SOURCE]  # isp, dmi, ld1-3
+MYOARM_PATHS = [t for t in D.MUSCLES if t != "ssp"]  # isp, dmi, ld1-3
 PARENT_TOL_MM = 0.1  # the parent's table comes from OpenSim's wrapping; MuJoCo's sphere wrap gives <= 0.07 mm
 
 
@@ -85,7 +85,7 @@ def test_coupled_girdle_reproduces_myoarm_except_ld(model, myoarm_table):
 def test_ssp_is_the_parents_supsp_and_myoarm_paths_give_myoarms(model, myoarm_table, girdle):
     """ssp takes the parent's SUPSP path (mobl_data.PATH_SOURCE): its moment arms are the parent's over the whole
     3-DOF grid, every coordinate; with paths="myoarm" the same generator gives MyoArm's SUPSP exactly."""
-    assert D.PATH_SOURCE == {"ssp": "mobl_arms"}
+    assert {t: D.PATH_SOURCE.get(t) for t in D.MUSCLES} == {"ssp": "mobl_arms", **{t: None for t in MYOARM_PATHS}}
     for c, diff in _max_diff(model, myoarm_table, ["ssp"], girdle, "mobl_arms").items():
         assert diff[0] < PARENT_TOL_MM, f"{c}: max |ours - parent| {diff[0]:.3f} mm"
     variant = mujoco.MjModel.from_xml_string(mobl.model_xml(paths="myoarm"))

@@ -227,6 +227,9 @@ def model_xml(clavicle: str = "mobl", folder: Path | None = None, locked_plane_d
     S^T ten_J^T F, S the coupling slopes. A table that changes (the FEM's, later) changes data, not this. Compile
     with `model.compile_model`'s recipe (user actuators cannot be compiled while the callbacks are installed).
 
+    `paths="mobl_opensim"`: the OpenSim file's path for every tendon whose muscle it has (tests and the
+    path-source rule only, `mobl_data.muscle_paths`).
+
     `muscles="full"`: the full shoulder (`mobl_data.FULL_MUSCLES`: the v2 six tendons and dan, dpo, ssc, tmi, tma,
     pec1-3, cor on MyoArm's paths; docs/model_full.md), model name `shoulder_full`; the default "v2" is the four.
 

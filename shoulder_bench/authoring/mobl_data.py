@@ -36,10 +36,15 @@ MUSCLES = {"ssp": "SUPSP", "isp": "INFSP", "dmi": "DELT2", "ld1": "LAT1", "ld2":
 # over the whole 3-DOF grid within 0.07 mm (tests/test_mobl.py). isp, dmi and LAT1-3 keep MyoArm's: the parent's wrap
 # INFSP over an ellipsoid (not a sphere) and moves DELT2's and LAT1-3's points with shoulder_elv, which fixed MuJoCo
 # sites cannot.
-PATH_SOURCE = {"ssp": "mobl_arms"}
 # The full shoulder (issue 12, `models/shoulder_full.xml`, docs/model_full.md): the four plus nine MoBL-ARMS muscles.
-# Every one of the nine takes MyoArm's path under the same rule as ssp: the parent's path is taken only where MuJoCo
-# represents it exactly (`parent_path`), and it refuses all nine (PARENT_REFUSED; tests/test_mobl_full.py checks it).
+# The parent's path is taken only where MuJoCo represents it exactly (`parent_path`); it refuses all nine
+# (PARENT_REFUSED). Where it is refused, the tendon takes, of the two derived models' paths MuJoCo represents exactly
+# (MyoArm's spheres and cylinders with side sites; the OpenSim file's fixed points, `opensim_path`), the one whose
+# moment arms in our model are closer to the parent's over the reference grid (all three coordinates, both girdle
+# modes; by RMSE and by median |difference|, which agree for every tendon; tests/test_mobl_full.py checks it).
+# That is MyoArm's for all but pec1: MyoArm's PECM1 replaces the parent's two moving points by fixed sites and an
+# elevator from 20-30 deg up in the coronal plane, where the parent and the OpenSim file adduct (docs/model_full.md).
+PATH_SOURCE = {"ssp": "mobl_arms", "pec1": "mobl_opensim"}
 FULL_MUSCLES = {**MUSCLES, "dan": "DELT1", "dpo": "DELT3", "ssc": "SUBSC", "tmi": "TMIN", "tma": "TMAJ",
                 "pec1": "PECM1", "pec2": "PECM2", "pec3": "PECM3", "cor": "CORB"}
 MUSCLE_SETS = {"v2": MUSCLES, "full": FULL_MUSCLES}
@@ -199,18 +204,26 @@ def humerus_inertial(folder: Path | None = None) -> Inertial:
 
 
 def muscle_paths(folder: Path | None = None, source: str = "v2", muscles: str = "v2") -> dict[str, list]:
-    """Each of our tendons' path: Site and Wrap items in path order. `source="v2"`: the parent's path for the
-    tendons in PATH_SOURCE, MyoArm's (`seq` order) for the others; `source="myoarm"`: MyoArm's for all (the
-    reconstruction test). `muscles`: "v2" (MUSCLES, the four) or "full" (FULL_MUSCLES)."""
-    if source not in ("v2", "myoarm"):
-        raise ValueError(f"source must be 'v2' or 'myoarm', not {source!r}")
+    """Each of our tendons' path: Site and Wrap items in path order. `source="v2"`: the path source in PATH_SOURCE
+    (the parent's, `parent_path`, or the OpenSim file's, `opensim_path`) for the tendons listed there, MyoArm's
+    (`seq` order) for the others; `source="myoarm"`: MyoArm's for all; `source="mobl_opensim"`: the OpenSim file's
+    for every tendon whose muscle it has (all but ld1-3), MyoArm's for the others (both for the tests and the
+    path-source rule). `muscles`: "v2" (MUSCLES, the four) or "full" (FULL_MUSCLES)."""
+    if source not in ("v2", "myoarm", "mobl_opensim"):
+        raise ValueError(f"source must be 'v2', 'myoarm' or 'mobl_opensim', not {source!r}")
     if muscles not in MUSCLE_SETS:
         raise ValueError(f"muscles must be one of {sorted(MUSCLE_SETS)}, not {muscles!r}")
-    rows = [r for r in _rows("muscle_parameters.csv", folder) if r["model"] == SOURCE]
+    all_rows = _rows("muscle_parameters.csv", folder)
+    rows = [r for r in all_rows if r["model"] == SOURCE]
+    opensim = {r["muscle"] for r in all_rows if r["model"] == "mobl_opensim" and r["record"] == "path_point"}
     out = {}
     for ours, theirs in MUSCLE_SETS[muscles].items():
-        if source == "v2" and PATH_SOURCE.get(ours) == "mobl_arms":
+        chosen = PATH_SOURCE.get(ours) if source == "v2" else source if theirs in opensim else None
+        if chosen == "mobl_arms":
             out[ours] = parent_path(theirs, folder)
+            continue
+        if chosen == "mobl_opensim":
+            out[ours] = opensim_path(theirs, folder)
             continue
         items = []
         for r in sorted((r for r in rows if r["muscle"] == theirs and r["record"] in ("path_point", "wrap")),
@@ -270,6 +283,22 @@ def parent_path(muscle: str, folder: Path | None = None) -> list:
             raise ValueError(f"{muscle} wrap {w.name}: {len(seg)} segments join {w.body} to another body, need 1")
         items.insert(items.index(sites[seg[0]]) + 1, w)
     return items
+
+
+def opensim_path(muscle: str, folder: Path | None = None) -> list[Site]:
+    """The OpenSim file's path of `muscle` (its name, e.g. PECM1): its fixed PathPoints in path order, as Sites
+    (`mobl_opensim` rows of muscle_parameters.csv). The file's muscles do not wrap (reference README 6.1: every
+    PathWrapSet is empty), so MuJoCo represents the path exactly; a wrap row naming an object is an error. Body
+    frames: the file's chain is MoBL's, the one the v2 model is built on (its SC location is the shipped clavicle's;
+    the other frames agree with MyoArm's to 0.04 mm), so the points are taken in their bodies as they are."""
+    rows = [r for r in _rows("muscle_parameters.csv", folder) if r["model"] == "mobl_opensim" and r["muscle"] == muscle]
+    wraps = [r["name"] for r in rows if r["record"] == "wrap" and r["name"] != "(none)"]
+    if wraps:
+        raise ValueError(f"mobl_opensim {muscle} wraps over {wraps}; only fixed points are taken")
+    points = sorted((r for r in rows if r["record"] == "path_point"), key=lambda r: int(r["seq"]))
+    if len(points) < 2:
+        raise ValueError(f"muscle_parameters.csv: no mobl_opensim path of {muscle}")
+    return [Site(f"{muscle}_osim_{r['name']}", r["body"], _vec(r, "x_m", "y_m", "z_m")) for r in points]
 
 
 def thorax_ellipsoid(folder: Path | None = None) -> tuple[tuple, tuple, tuple]:

@@ -16,16 +16,18 @@ Targets, each able to fail (exit status 1):
 - `role/<muscle>/<DOF>/<plane>` (ROLES): the known role with the parent's sign: the mean moment arm over 0-120 deg
   (rotation 0, girdle coupled) has the role's sign, and so has the parent's (a role the parent contradicts fails).
 
-The force targets (rest angle, passive torque, peak isometric torques) need the twelve muscles' forces; they are left
-out of this step (FORCE_NOTE). As in v2, the MyoArm comparison of a MyoArm path (and the parent's of ssp) is close to a
+- `force/rest/<plane>`, `force/passive/<DOF>/<plane>`, `peak/<muscle>/<DOF>/<plane>`: v2's force targets in all
+  three DOFs, judged on v2's static estimate, the tasks' FEM tables beside (`forces_full`, FORCE_NOTE).
+
+As in v2, the MyoArm comparison of a MyoArm path (and the parent's of ssp, the OpenSim file's of pec1) is close to a
 tautology; the envelope without MyoArm is shown beside (no target).
 """
 from __future__ import annotations
 
 import numpy as np
 
+from shoulder_bench.authoring import forces_full, references, validate_v2
 from shoulder_bench.authoring import mobl_data as D
-from shoulder_bench.authoring import references, validate_v2
 from shoulder_bench.authoring import validate as V
 from shoulder_bench.model import compile_model
 
@@ -54,9 +56,11 @@ ROLES = (("ssc", "shoulder_rot", JUDGED_PLANES, 1, "an internal rotator"),
          ("dan", "shoulder_elv", (SAGITTAL,), 1, "a flexor"),
          ("dpo", "shoulder_elv", (SAGITTAL,), -1, "an extensor"),
          *((m, "shoulder_elv", (0,), -1, "an adductor") for m in ("pec1", "pec2", "pec3", "tma")))
-FORCE_NOTE = ("force targets (rest angle, passive torque, peak isometric torques, capacity) are left out of this step: "
-              "they need the twelve muscles' forces (issue 12 section 2, the FEM sheets); statics_v2's estimate is "
-              "written for the four v2 muscles in one plane")
+FORCE_NOTE = ("judged on v2's static estimate (a rigid-tendon Hill muscle with the parent's parameters and the "
+              "Blemker curves) in the coronal and scapular planes, rotation 0, girdle coupled: the relaxed rest angle "
+              "along elevation, the net passive torque over 0-20 deg in each DOF, each muscle's peak isometric torque "
+              "in each DOF against F0 x its path source's peak moment arm; the tasks' FEM tables and the parent's "
+              "passive curve shown beside (no target)")
 TAUTOLOGY = ("the full model's isp, dmi, ld1-3 and the nine added muscles are MyoArm's paths (reconstructed within "
              "0.001 mm of MyoArm's table, except where the clavicle sits at MoBL's SC location: ld coupled about "
              "elevation, pec2 and pec3 in every DOF) and ssp is the parent's SUPSP: those comparisons are close to "
@@ -111,11 +115,13 @@ def role_targets(refs, grid: dict) -> list[dict]:
 
 
 def summary(targets: list[dict]) -> dict:
-    """{muscle: {DOF: 'pass' | 'FAIL'}}: every target of that muscle and DOF (envelope, RMSE, role) met or not."""
+    """{muscle: {DOF: 'pass' | 'FAIL'}}: every target of that muscle and DOF (envelope, RMSE, role, peak torque) met
+    or not; the model's rest and passive-torque targets are not any one muscle's."""
     out = {m: {references.DOF_LABELS[c]: True for c in references.COORDINATES} for m in MUSCLES}
     for t in targets:
-        _, m, c, _ = t["id"].split("/")
-        out[m][references.DOF_LABELS[c]] &= t["passed"]
+        kind, m, c, *_ = t["id"].split("/")
+        if kind != "force":
+            out[m][references.DOF_LABELS[c]] &= t["passed"]
     return {m: {d: "pass" if ok else "FAIL" for d, ok in dofs.items()} for m, dofs in out.items()}
 
 
@@ -126,7 +132,12 @@ def evaluate(view: V.ModelView, shown: str, path) -> dict:
     grid, bundles = validate_v2.curves(model, refs, V.ELEVATIONS, MUSCLES, PLANES)
     fine, _ = validate_v2.curves(model, refs, V.FINE, MUSCLES, PLANES)
     section = validate_v2.moment_arm_section(refs, grid, fine, bundles, MUSCLES, PLANES)
-    targets = moment_arm_targets(section) + role_targets(refs, grid)
+    from shoulder_bench import full_arm
+    from shoulder_bench.tendon_law import TendonLaw
+
+    forces = forces_full.section(model, {m: tuple(references.FULL_TENDONS[m]) for m in MUSCLES}, refs,
+                                 TendonLaw.load("fem", groups=full_arm.ACTUATORS))
+    targets = moment_arm_targets(section) + role_targets(refs, grid) + forces_full.targets(forces)
     return {
         "model": {"path": shown, "version": "full", "kinematic_only": True, "description": view.describe(),
                   "girdle": view.girdle, "muscles": list(MUSCLES), "tendons": {m: refs.v2_weights(m) for m in MUSCLES},
@@ -135,6 +146,7 @@ def evaluate(view: V.ModelView, shown: str, path) -> dict:
         "path_source": {t: D.PATH_SOURCE.get(t, "myoarm") for t in TENDONS},
         "envelope_excluded": {m: references.ENVELOPE_EXCLUDED.get(m, {}) for m in MUSCLES},
         "force_targets": FORCE_NOTE,
+        "forces": {str(p): v for p, v in forces.items()},
         "moment_arms": section,
         "summary": summary(targets),
         "targets": targets,

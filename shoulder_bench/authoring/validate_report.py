@@ -189,21 +189,56 @@ def _rmse_table(say, ma, muscles, which="v2"):
 
 def _print_full(r, say):
     mod = r["model"]
-    say(f"shoulder-bench model validate: {mod['path']} (the full shoulder, kinematics only: {len(mod['muscles'])} "
-        f"muscles, {sum(len(w) for w in mod['tendons'].values())} tendons)")
+    say(f"shoulder-bench model validate: {mod['path']} (the full shoulder: {len(mod['muscles'])} muscles, "
+        f"{sum(len(w) for w in mod['tendons'].values())} tendons; force targets on a static estimate, the tasks' "
+        "FEM tables beside)")
     say(f"model: {mod['description']}")
     say("path source: " + ", ".join(f"{t} {references.SHORT[s]}" for t, s in r["path_source"].items()))
     say(f"note: {mod['note']}")
     say(f"force targets: {r['force_targets']}")
     _rmse_table(say, r["moment_arms"], mod["muscles"], "full")
-    say("\nPer muscle and DOF (every envelope, RMSE and role target of it, coronal and scapular planes, girdle "
-        "coupled):")
+    _say_full_forces(r["forces"], say)
+    say("\nPer muscle and DOF (every envelope, RMSE, role and peak-torque target of it, coronal and scapular planes, "
+        "girdle coupled):")
     dofs = list(next(iter(r["summary"].values())))
     say(f"{'muscle':7s}" + "".join(f"{d:>11s}" for d in dofs))
     for m, res in r["summary"].items():
         say(f"{m:7s}" + "".join(f"{res[d]:>11s}" for d in dofs))
     say(f"\nTargets: {sum(t['passed'] for t in r['targets'])} of {len(r['targets'])} pass")
     _say_targets(r, say)
+
+
+def _say_full_forces(forces: dict, say):
+    """The full model's force quantities: the static estimate (judged) and the FEM tables (shown), each plane."""
+    say("\nForces, rotation 0, girdle coupled: estimate = static rigid-tendon Hill (judged), FEM = the tasks' tables "
+        "(shown), parent = the estimate with the parent's passive curve (shown)")
+    for p, s in forces.items():
+        rest = " / ".join(f"{s[k]['relaxed_rest_deg']:.1f}" for k in ("hill", "fem", "parent_passive_curve") if s[k])
+        passive = "; ".join(f"{references.DOF_LABELS[c]} " + " / ".join(
+            f"{s[k]['passive_max_Nm'][c]:+.2f}" for k in ("hill", "fem", "parent_passive_curve") if s[k])
+            for c in references.COORDINATES)
+        names = list(s["lam_at_0"])
+        big = ", ".join(f"{t} {v:.2f}" for t, v in zip(names, s["hill"]["passive_by_tendon_max_Nm"]) if v > 0.1)
+        say(f"{PLANE_NAMES[int(p)]} ({p} deg): relaxed rest (estimate / FEM / parent) {rest} deg; largest net passive "
+            f"torque over 0-{PASSIVE_MAX_DEG:g} deg {passive} N m; tendons with a passive torque above 0.1 N m there "
+            f"(estimate, any DOF): {big or 'none'}")
+    s0 = next(iter(forces.values()))  # the side (0 deg) is the same pose in every plane
+    say("at 0 deg, L_MT (mm) / fibre stretch (estimate): " + ", ".join(
+        f"{t} {s0['L_at_0_mm'][t]:.1f} / {s0['lam_at_0'][t]:.2f}" for t in s0["lam_at_0"]))
+    say("peak isometric torque / (F0 x the path source's peak moment arm), estimate (FEM):")
+    planes = list(forces)
+    say(f"{'muscle':7s}" + "".join(f"{PLANE_NAMES[int(p)] + ' ' + references.DOF_LABELS[c]:>22s}"
+                                    for p in planes for c in references.COORDINATES))
+    for m in next(iter(forces.values()))["hill"]["peak_isometric"]:
+        cells = []
+        for p in planes:
+            s = forces[p]
+            for c in references.COORDINATES:
+                e = s["expected"][m][c]["expected_Nm"]
+                est = s["hill"]["peak_isometric"][m][c]["peak_Nm"] / e
+                fem = f" ({s['fem']['peak_isometric'][m][c]['peak_Nm'] / e:.2f})" if s["fem"] else ""
+                cells.append(f"{est:.2f}{fem}")
+        say(f"{m:7s}" + "".join(f"{c:>22s}" for c in cells))
 
 
 def _say_v2_quantities(r, say):
@@ -325,8 +360,9 @@ def _figure_v2(plt, m, ma, version="2"):
             ax.set_xlabel("elevation (deg)") if i == 2 else None
             ax.set_ylabel(f"{references.DOF_LABELS[coord]} moment arm (mm, {signs[coord]})") if j == 0 else None
     axes[0, 0].legend(fontsize=7, loc="best")
-    parent = mobl_data.PATH_SOURCE.get(m) == "mobl_arms"  # ssp: the parent's own path (docs/model_v2.md)
-    own, match = ("the parent's own path", "parent") if parent else ("MyoArm's path", "MyoArm")
+    source = mobl_data.PATH_SOURCE.get(m, "myoarm")  # ssp: the parent's own path (docs/model_v2.md); pec1 OpenSim's
+    own, match = {"mobl_arms": ("the parent's own path", "parent"), "myoarm": ("MyoArm's path", "MyoArm"),
+                  "mobl_opensim": ("the OpenSim file's path", "OpenSim")}[source]
     fig.suptitle(f"{NAMES[m]} ({m}): {'v2' if version == '2' else 'full'} kinematic model against the references, "
                  f"rotation 0 ({'v2' if version == '2' else 'model'} = {own}: its {match} match is near-tautological; "
                  f"the {match} curve lies under the model's)")

@@ -5,6 +5,10 @@ poses and
 the same formula on the parent's own paths (its wrap objects and moving path points), computed by OpenSim.
 
     python -m venv /tmp/osimvenv && /tmp/osimvenv/bin/pip install opensim==4.6 numpy   # not a project dependency
+    # the parent file also ships in osim-rl's PyPI sdist (md5 d6b9866c4f721f481e7d9e0bdae51093, as the reference's):
+    pip download osim-rl==3.0.11 --no-deps -d /tmp && tar xzf /tmp/osim-rl-3.0.11.tar.gz -C /tmp \
+        && cp /tmp/osim-rl-3.0.11/osim/models/MoBL_ARMS_J.osim /tmp/
+    # --full (after the two paths): the full shoulder's fifteen tendons instead of v2's six
     /tmp/osimvenv/bin/python models/reference/scripts/parent_fibre_stretch.py /tmp/MoBL_ARMS_J.osim \
         models/reference/mobl_arms_parent_muscles.csv
 
@@ -24,6 +28,9 @@ import numpy as np
 import opensim as osim
 
 MUSCLES = {"ssp": "SUPSP", "isp": "INFSP", "dmi": "DELT2", "ld1": "LAT1", "ld2": "LAT2", "ld3": "LAT3"}
+# `--full`: the full shoulder's fifteen tendons (shoulder_bench.authoring.mobl_data.FULL_MUSCLES), docs/model_full.md
+FULL = {**MUSCLES, "dan": "DELT1", "dpo": "DELT3", "ssc": "SUBSC", "tmi": "TMIN", "tma": "TMAJ", "pec1": "PECM1",
+        "pec2": "PECM2", "pec3": "PECM3", "cor": "CORB"}
 PLANES = {"coronal": 0.0, "scapular": 30.0}
 ELEV = np.arange(-10.0, 160.5, 1.0)
 TASK = (ELEV >= 0) & (ELEV <= 120)
@@ -83,6 +90,9 @@ def main(osim_path: str, params_csv: str) -> int:
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 3:
+    args = [a for a in sys.argv[1:] if a != "--full"]
+    if len(args) != 2:
         raise SystemExit(__doc__)
-    raise SystemExit(main(sys.argv[1], sys.argv[2]))
+    if "--full" in sys.argv:
+        MUSCLES = FULL
+    raise SystemExit(main(*args))
