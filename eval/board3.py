@@ -6,8 +6,9 @@ Columns: the success rate, the humerus orientation error (MAE with a 95 % bootst
 error of each coordinate (plane of elevation, elevation, axial rotation; MAE over the frames that did not crash),
 effort, saw-tooth and mean |delta a| (`eval.measures`, as the 1-DOF board's; success on the orientation error),
 crashes, frames and the run's wall time (its periodic test evaluations included). The main board
-(`eval.leaderboard`) keeps the 1-DOF tasks; its co-contraction, combing and suite columns are not defined here yet
-(co-contraction needs a sign of a three-component torque; the suites are 1-DOF targets).
+(`eval.leaderboard`) keeps the 1-DOF tasks; its combing and suite columns are not defined here (the suites are 1-DOF
+targets; combing is a 3-DOF ADL profile, `trajectory3.ADL`, evaluated by name). Co-contraction: the share of the
+summed activation in muscles whose torque vector has a negative dot product with the net one (`TorqueLaw3`).
 """
 from __future__ import annotations
 
@@ -22,13 +23,33 @@ from shoulder_bench.eval.leaderboard import setting_of
 
 COLUMNS = ("task", "algorithm", "seeds", "success", "orientation MAE (deg) [95 % CI]", "orientation RMSE (deg)",
            "plane MAE (deg)", "elevation MAE (deg)", "rotation MAE (deg)", "effort (Σa² per frame)",
-           "saw-tooth (sign changes/s)", "mean abs Δa per frame", "crashes", "frames",
+           "saw-tooth (sign changes/s)", "mean abs Δa per frame", "co-contraction", "crashes", "frames",
            "run wall (s, evaluations included)")
-MEASURES = ("success", "effort", "sawtooth_per_s", "mean_abs_delta")
+MEASURES = ("success", "effort", "sawtooth_per_s", "mean_abs_delta", "co_contraction")
 
 
-def score_of(policy, task: str, test: list, options: dict | None = None) -> dict:
-    """`evaluate` with a recorded trace, plus the board's measures of it (the trace itself dropped)."""
+class TorqueLaw3:
+    """The full shoulder's isometric muscle torques for `measures.co_contraction`: torque(angles rad (F, 3), velocity,
+    activation (F, muscles)) -> (F, muscles, 3) N m about plane, elevation, rotation (the tasks' FEM tables through
+    the tendon moment arms, `full_arm.Pose.tendon_geometry`; a muscle's the sum over its tendons)."""
+
+    def __init__(self):
+        from shoulder_bench import full_arm
+        from shoulder_bench.tendon_law import TendonLaw
+
+        self.law, self.pose = TendonLaw.load("fem", groups=full_arm.ACTUATORS), full_arm.Pose()
+        self.muscles = self.law.muscles
+
+    def torque(self, angle, velocity, activation) -> np.ndarray:
+        L, r = self.pose.tendon_geometry(np.degrees(angle), self.law.actuators)
+        f = self.law.force(L, np.zeros_like(L), activation)  # isometric: the lengthening rate 0
+        tau = f[..., None] * r  # (F, tendons, 3)
+        return np.stack([tau[:, list(self.law.muscle_of == k)].sum(axis=1) for k in range(len(self.muscles))], axis=1)
+
+
+def score_of(policy, task: str, test: list, options: dict | None = None, law=None) -> dict:
+    """`evaluate` with a recorded trace, plus the board's measures of it (the trace itself dropped); `law` a
+    TorqueLaw3 for the co-contraction (default a new one)."""
     from shoulder_bench.eval import measures
     from shoulder_bench.eval.evaluate import evaluate
 
@@ -38,7 +59,9 @@ def score_of(policy, task: str, test: list, options: dict | None = None) -> dict
     ok = measures.successes(measures.tracking_error(trace, frames), frames)
     return score | {"success": float(ok.mean()), "effort": measures.effort(trace["activation"]),
                     "sawtooth_per_s": measures.sawtooth_rate(trace["activation"]),
-                    "mean_abs_delta": measures.mean_abs_delta(trace["activation"])}
+                    "mean_abs_delta": measures.mean_abs_delta(trace["activation"]),
+                    "co_contraction": measures.co_contraction(trace["angle_deg"], trace["activation"],
+                                                              law or TorqueLaw3())}
 
 
 def run_folders(runs: Path) -> list[Path]:
@@ -121,10 +144,11 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
             sets[task] = fixed_test_set(task)
         return sets[task]
     groups: dict[tuple[str, str], tuple[list, list]] = defaultdict(lambda: ([], []))
+    torques = TorqueLaw3()
     for folder in tqdm(folders, desc="evaluating 3-DOF runs", disable=not progress):
         cfg = json.loads((folder / "config.json").read_text())
         policy, _ = load_policy(str(folder / "policy.pt"))
-        score = score_of(policy, cfg["task"], test_of(cfg["task"]), options=cfg.get("options") or None)
+        score = score_of(policy, cfg["task"], test_of(cfg["task"]), options=cfg.get("options") or None, law=torques)
         metrics = json.loads((folder / "metrics.json").read_text()) if (folder / "metrics.json").exists() else {}
         g = groups[(cfg["task"], cfg["algo"].upper(), setting_key(cfg))]
         g[0].append(score)
@@ -132,14 +156,15 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
     for path, policy, meta in agents:  # a shipped agent's record (its source run's metrics) lies beside it
         record = path.with_suffix(".json")
         metrics = json.loads(record.read_text()) if record.exists() else {}
-        score = score_of(policy, meta["task"], test_of(meta["task"]), options=meta.get("options") or None)
+        score = score_of(policy, meta["task"], test_of(meta["task"]), options=meta.get("options") or None,
+                         law=torques)
         g = groups[(meta["task"], f"{str(meta.get('algo', '')).upper()} (shipped agent {path.stem})", "")]
         g[0].append(score)
         g[1].append(metrics)
     rows = [_row(task, algo + _variant(setting, [s for t, a, s in groups if (t, a) == (task, algo)]),
                  *groups[(task, algo, setting)]) for task, algo, setting in sorted(groups)]
     for task in sorted({t for t, _, _ in groups if not TASKS_3DOF[t][1]}):  # the continuous tasks' reference
-        score = score_of(ReferenceController3(task), task, test_of(task))
+        score = score_of(ReferenceController3(task), task, test_of(task), law=torques)
         rows.append(_row(task, "reference controller", [score], []))
     return rows
 
@@ -150,7 +175,8 @@ def _cells(r: dict) -> list[str]:
     wall = ", ".join(f"{w:.0f}" for w in r["wall_s"] if w) or "-"
     return [r["task"], r["algorithm"], str(r["seeds"]), f"{r['success']:.0%}", f"{r['mae']:.2f}{ci}",
             f"{r['rmse']:.2f}", f"{r['plane']:.2f}", f"{r['elevation']:.2f}", f"{r['rotation']:.2f}",
-            f"{r['effort']:.3f}", f"{r['sawtooth_per_s']:.2f}", f"{r['mean_abs_delta']:.4f}", str(r["crashes"]),
+            f"{r['effort']:.3f}", f"{r['sawtooth_per_s']:.2f}", f"{r['mean_abs_delta']:.4f}",
+            f"{r['co_contraction']:.0%}", str(r["crashes"]),
             frames, wall]
 
 
@@ -159,8 +185,9 @@ NOTE = ("3-DOF rows: evaluated now on their task's fixed 100-trajectory test set
         "orientation error is the angle between the achieved and the target humerus orientation; each coordinate's "
         "MAE excludes crashed frames; the interval is the 95 % bootstrap over seeds (none for one seed). Success: the "
         "share of test trajectories whose orientation error stays under 2 deg on at least 90 % of their frames "
-        "(frames after a crash fail); effort, saw-tooth and mean abs Δa as in the main board; with several seeds, "
-        "means over seeds.")
+        "(frames after a crash fail); effort, saw-tooth and mean abs Δa as in the main board; co-contraction: the "
+        "share of the summed activation in muscles whose isometric torque vector (plane, elevation, rotation) points "
+        "against the net muscle torque (negative dot product); with several seeds, means over seeds.")
 
 
 def markdown(rows: list[dict]) -> str:

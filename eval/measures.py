@@ -15,10 +15,11 @@ The ranking measures (issue 14 §3; docs/ranking.md):
 - Effort: the mean over recorded frames of the summed squared activations, sum_i a_i^2 (per frame, not per muscle).
 - Mean |delta a|: the mean over muscles and consecutive recorded frames of |a_t - a_(t-1)| (activation per frame).
 - Co-contraction: sum over frames and muscles of a_i where muscle i's torque has the opposite sign to the net muscle
-  torque (the sum over muscles), divided by the sum of a_i over frames and muscles. The torques are the task's force
-  law at the recorded angle and activation, isometric (joint velocity 0: the force-velocity factor is 1), active and
-  passive force through the tabled moment arms. 0 = no activation works against the muscles' net torque; a
-  one-muscle task is 0 by definition.
+  torque (the sum over muscles) — on the 3-DOF tasks, where its torque vector (plane, elevation, rotation) has a
+  negative dot product with the net one — divided by the sum of a_i over frames and muscles. The torques are the
+  task's force law at the recorded angle and activation, isometric (joint velocity 0: the force-velocity factor is
+  1), active and passive force through the tabled moment arms. 0 = no activation works against the muscles' net
+  torque; a one-muscle task is 0 by definition.
 """
 from __future__ import annotations
 
@@ -102,8 +103,10 @@ def mean_abs_delta(activation: np.ndarray) -> float:
 
 def co_contraction(angle_deg: np.ndarray, activation: np.ndarray, law) -> float:
     """Share of the summed activation in muscles whose (isometric) torque opposes the net muscle torque; `law` a
-    `ForceLaw` of the task's muscles (its `torque(angle rad, velocity rad/s, activation)`, (F, muscles))."""
-    ok = ~np.isnan(angle_deg) & ~np.isnan(activation).any(axis=-1)
+    `ForceLaw` of the task's muscles (its `torque(angle rad, velocity rad/s, activation)`, (F, muscles)), or on the
+    3-DOF tasks a law whose torque takes angles (F, 3) and gives (F, muscles, 3) (`board3.TorqueLaw3`)."""
+    bad = np.isnan(angle_deg)
+    ok = ~(bad.any(axis=-1) if bad.ndim == activation.ndim else bad) & ~np.isnan(activation).any(axis=-1)
     q, a = np.radians(angle_deg[ok]), activation[ok]
     if a.shape[-1] != len(law.muscles):
         raise ValueError(f"co_contraction: {a.shape[-1]} activations for a law of {len(law.muscles)} muscles")
@@ -111,7 +114,8 @@ def co_contraction(angle_deg: np.ndarray, activation: np.ndarray, law) -> float:
     if not len(a) or total <= 0:
         return float("nan")
     tau = law.torque(q, np.zeros_like(q), a)
-    opposing = tau * tau.sum(axis=1, keepdims=True) < 0
+    tau = tau[..., None] if tau.ndim == 2 else tau  # (F, muscles, DOFs)
+    opposing = (tau * tau.sum(axis=1, keepdims=True)).sum(axis=-1) < 0
     return float(a[opposing].sum() / total)
 
 

@@ -194,9 +194,35 @@ def test_a_recorded_3dof_evaluation_gives_the_boards_measures():
     np.testing.assert_array_equal(err, trace["error_deg"])
     assert measures.successes(err, [30, 30]).tolist() == [bool((e < 2).mean() >= 0.9) for e in err]
     assert not measures.successes(err + 2.0, [30, 30]).any()  # 2 deg worse everywhere: nothing succeeds
-    row = board3.score_of(ReferenceController3("track_3dof"), "track_3dof", test)
+    torques = board3.TorqueLaw3()
+    row = board3.score_of(ReferenceController3("track_3dof"), "track_3dof", test, law=torques)
     assert "trace" not in row and row["mae_deg"] == pytest.approx(score["mae_deg"])
     assert row["effort"] == pytest.approx(measures.effort(trace["activation"])) and row["sawtooth_per_s"] >= 0
+    assert 0.0 < row["co_contraction"] < 1.0  # holding a low pose co-contracts (docs/tasks_3dof.md "Workspace")
+
+
+def test_3dof_co_contraction_is_the_share_against_the_net_torque_vector():
+    """TorqueLaw3: the FEM tables' torques through the tendon moment arms; one muscle alone opposes nothing; with
+    every muscle on, the share of those whose torque vector points against the net (negative dot product)."""
+    from shoulder_bench.eval import board3
+    from shoulder_bench.eval.measures import co_contraction
+
+    torques = board3.TorqueLaw3()
+    angle = np.array([[[50.0, 60.0, 10.0]] * 2])  # (1, 2, 3)
+    act = np.zeros((1, 2, len(full_arm.MUSCLES)))
+    act[..., full_arm.MUSCLES.index("dan")] = 0.4
+    assert co_contraction(angle, act, torques) == pytest.approx(0.0)
+    act[:] = 0.5
+    tau = torques.torque(np.radians(angle[0, :1]), np.zeros(1), act[0, :1])[0]  # (muscles, 3)
+    against = (tau @ tau.sum(axis=0)) < 0
+    assert co_contraction(angle, act, torques) == pytest.approx(against.mean()) and 0 < against.mean() < 1
+    ssp = np.zeros((1, len(full_arm.MUSCLES)))
+    ssp[0, full_arm.MUSCLES.index("ssp")] = 1.0
+    tau1 = torques.torque(np.radians(angle[0, :1]), np.zeros(1), ssp)[0]
+    L, r = torques.pose.tendon_geometry(angle[0, :1], torques.law.actuators)
+    f = torques.law.force(L, np.zeros_like(L), ssp)
+    k = torques.law.actuators.index("ssp")  # ssp: one tendon; its torque = its table force x its moment arms
+    np.testing.assert_allclose(tau1[full_arm.MUSCLES.index("ssp")], f[0, k] * r[0, k], rtol=1e-12)
 
 
 def test_render_a_3dof_episode(tmp_path):
