@@ -235,7 +235,8 @@ def test_command_on_the_full_model(tmp_path, capsys, report):
     rc = cli.main(["model", "validate", "--model", str(FULL_PATH), "--json", "--out", str(tmp_path)])
     out = json.loads(capsys.readouterr().out)
     assert rc == 1 and out["summary"] == report["summary"] and out["model"]["path"] == "models/shoulder_full.xml"
-    assert sorted(f.name for f in tmp_path.iterdir()) == sorted(f"validate_full_{m}.png" for m in out["summary"])
+    assert sorted(f.name for f in tmp_path.iterdir()) == sorted(
+        [*(f"validate_full_{m}.png" for m in out["summary"]), "validate_full_relaxed_arm.png"])
     rc = cli.main(["model", "validate", "--model", str(FULL_PATH), "--out", str(tmp_path)])
     text = capsys.readouterr().out
     assert rc == 1 and sum(x.startswith("[FAIL]") for x in text.splitlines()) == 22

@@ -114,6 +114,7 @@ def quantities(geo: dict, force, muscles: dict) -> dict:
                     for n, c in enumerate(GH_COORDINATES)}
     by_tendon = np.abs(np.einsum("pt,ptc->ptc", f0, r)[win]).max(axis=(0, 2))  # (T,) largest over 0-20 deg, DOFs
     return {"relaxed_rest_deg": statics.rest_on_grid(elev, passive[:, 1] + g[:, 1]),
+            "net_relaxed_elevation_Nm": (passive[:, 1] + g[:, 1]).round(4).tolist(),  # the rest's curve (figure)
             "passive_by_tendon_max_Nm": by_tendon.round(4).tolist(),
             "passive_max_Nm": {c: float(passive[win][k[n], n]) for n, c in enumerate(GH_COORDINATES)},
             "passive_max_at_deg": {c: float(elev[win][k[n]]) for n, c in enumerate(GH_COORDINATES)},
@@ -142,7 +143,8 @@ def section(model: mujoco.MjModel, muscles: dict, refs, law=None) -> dict:
                                   "expected_Nm": f0 * arm / 1000.0}
         i0 = int(np.argmin(np.abs(geo["elevation_deg"])))
         lam0 = {t: float(statics_v2.fibres(geo["L"][i0, k], parent[D.FULL_MUSCLES[t]])[0]) for k, t in enumerate(names)}
-        out[p] = {"L_at_0_mm": {t: float(geo["L"][i0, k] * 1000.0) for k, t in enumerate(names)}, "lam_at_0": lam0,
+        out[p] = {"elevation_deg": geo["elevation_deg"].tolist(), "gravity_elevation_Nm": geo["gravity"][:, 1].tolist(),
+                  "L_at_0_mm": {t: float(geo["L"][i0, k] * 1000.0) for k, t in enumerate(names)}, "lam_at_0": lam0,
                   "hill": quantities(geo, hill, idx), "fem": quantities(geo, fem, idx) if fem else None,
                   "parent_passive_curve": quantities(geo, parent_curve, idx), "expected": expected}
     return out

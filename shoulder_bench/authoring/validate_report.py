@@ -9,7 +9,13 @@ from pathlib import Path
 import numpy as np
 
 from shoulder_bench.authoring import anatomy, mobl_data, references
-from shoulder_bench.authoring.validate import ENVELOPE_MARGIN_MM, NOT_MODELLED, PASSIVE_MAX_DEG, PLANE_NAMES
+from shoulder_bench.authoring.validate import (
+    ENVELOPE_MARGIN_MM,
+    NOT_MODELLED,
+    PASSIVE_MAX_DEG,
+    PLANE_NAMES,
+    REST_MAX_DEG,
+)
 
 COLOURS = {"mobl_arms": "tab:blue", "myoarm": "tab:green", "mobl_opensim": "tab:orange"}
 COLS = [0, 30, 60, 90, 120]
@@ -318,7 +324,38 @@ def write_figures(r: dict, out_dir: Path) -> list[Path]:
             fig.savefig(tmp, dpi=90)
         plt.close(fig)
         paths.append(path)
+    if r.get("forces"):  # the full model: where the relaxed arm rests
+        fig, path = _figure_relaxed(plt, r["forces"]), Path(out_dir) / "validate_full_relaxed_arm.png"
+        with replacing(path) as tmp:
+            fig.savefig(tmp, dpi=90)
+        plt.close(fig)
+        paths.append(path)
     return paths
+
+
+def _figure_relaxed(plt, forces: dict):
+    """Net elevation torque on the relaxed arm (activations 0: passive muscle torque + gravity) against elevation,
+    coronal and scapular planes: the static estimate, the FEM tables and the estimate with the parent's passive curve;
+    the arm rests where a curve crosses zero downwards."""
+    fig, axes = plt.subplots(1, len(forces), figsize=(12, 4.5), sharey=True)
+    labels = {"hill": "static estimate (judged)", "fem": "the tasks' FEM tables", "parent_passive_curve":
+              "estimate, the parent's passive curve"}
+    for ax, (p, s) in zip(np.atleast_1d(axes), forces.items()):
+        x = np.asarray(s["elevation_deg"])
+        for key, style in (("hill", "k-"), ("fem", "C0-"), ("parent_passive_curve", "C2--")):
+            if s[key]:
+                ax.plot(x, s[key]["net_relaxed_elevation_Nm"], style, label=f"{labels[key]}: rest "
+                        f"{s[key]['relaxed_rest_deg']:.1f} deg")
+        ax.plot(x, s["gravity_elevation_Nm"], color="0.5", lw=1, label="gravity alone (humerus)")
+        ax.axhline(0, color="0.5", lw=0.5)
+        ax.axvspan(-REST_MAX_DEG, REST_MAX_DEG, color="0.9", label=f"target: rest within {REST_MAX_DEG:g} deg")
+        ax.set_title(f"{PLANE_NAMES[int(p)]} plane ({p} deg), rotation 0, girdle coupled", fontsize=9)
+        ax.set_xlabel("elevation (deg)")
+        ax.legend(fontsize=7, loc="best")
+    np.atleast_1d(axes)[0].set_ylabel("net elevation torque, activations 0 (N m, + elevates)")
+    fig.suptitle("The full model's relaxed arm: passive muscle torque + gravity along elevation")
+    fig.tight_layout()
+    return fig
 
 
 def _figure_v1(plt, m, ma, mod, x):
