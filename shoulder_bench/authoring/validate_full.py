@@ -1,9 +1,10 @@
-"""`shoulder-bench model validate --model models/shoulder_full.xml`: the full shoulder's kinematics (issue 12 section
-1, first step) against the reference moment arms; docs/model_full.md.
+"""`shoulder-bench model validate --model models/shoulder_full.xml`: the full shoulder (issue 12 section 1) against
+the reference moment arms, and v2's force targets in three DOFs; docs/model_full.md.
 
 The model is `mobl.model_xml(muscles="full")`: v2's tendons (ssp the MoBL parent's SUPSP path; isp, dmi, ld1-3
-MyoArm's) and nine more on MyoArm's paths (dan DELT1, dpo DELT3, ssc SUBSC, tmi TMIN, tma TMAJ, pec1-3 PECM1-3, cor
-CORB; `mobl_data.PARENT_REFUSED` says why not the parent's), thirteen muscles (ld = the F0-weighted mean of ld1-3).
+MyoArm's) and nine more (dan DELT1, dpo DELT3, ssc SUBSC, tmi TMIN, tma TMAJ, pec2-3 PECM2-3, cor CORB on MyoArm's
+paths, pec1 on the OpenSim file's PECM1; `mobl_data.PARENT_REFUSED` says why not the parent's, `PATH_SOURCE` which
+derived path), thirteen muscles (ld = the F0-weighted mean of ld1-3).
 
 Moment arms: `validate_v2.curves` (the reference tables' own method, `kinematics.moment_arms`), every DOF, rotation 0,
 girdle coupled and fixed, over elevation 0-120 deg in the coronal (0), scapular (30) and sagittal (90 deg) planes.
@@ -61,9 +62,10 @@ FORCE_NOTE = ("judged on v2's static estimate (a rigid-tendon Hill muscle with t
               "along elevation, the net passive torque over 0-20 deg in each DOF, each muscle's peak isometric torque "
               "in each DOF against F0 x its path source's peak moment arm; the tasks' FEM tables and the parent's "
               "passive curve shown beside (no target)")
-TAUTOLOGY = ("the full model's isp, dmi, ld1-3 and the nine added muscles are MyoArm's paths (reconstructed within "
-             "0.001 mm of MyoArm's table, except where the clavicle sits at MoBL's SC location: ld coupled about "
-             "elevation, pec2 and pec3 in every DOF) and ssp is the parent's SUPSP: those comparisons are close to "
+TAUTOLOGY = ("the full model's isp, dmi, ld1-3 and the added muscles but pec1 are MyoArm's paths (reconstructed "
+             "within 0.001 mm of MyoArm's table, except where the clavicle sits at MoBL's SC location: ld coupled "
+             "about elevation, pec2 and pec3 in every DOF), pec1 is the OpenSim file's PECM1 (within 0.05 mm of its "
+             "table) and ssp is the parent's SUPSP: those comparisons are close to "
              "tautologies, and so are the envelope and RMSE targets wherever that reference is among theirs; the "
              "informative ones are the other references' (their RMSE; the envelope w/o MyoArm)")
 
