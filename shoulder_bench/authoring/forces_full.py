@@ -26,16 +26,13 @@ from shoulder_bench import statics
 from shoulder_bench.authoring import mobl_data as D
 from shoulder_bench.authoring import references, statics_v2, tendons
 from shoulder_bench.authoring import validate as V
-from shoulder_bench.authoring.fem.material import f_active
+from shoulder_bench.authoring.fem.material import f_active, f_passive
 from shoulder_bench.authoring.kinematics import GH_COORDINATES, ShoulderPoser, moment_arms
 
 PLANES = tuple(references.PLANES.values())  # coronal 0, scapular 30
 RANGE_DEG, STEP_DEG = (-10.0, 160.0), 0.5
 GIRDLE = "coupled"
 H_DEG = 0.25
-SOURCE_REFERENCE = {"mobl_arms": "mobl_arms", "mobl_opensim": "mobl_opensim", "myoarm": "myoarm"}
-HILL = "static rigid-tendon Hill estimate (parent's parameters, Blemker curves)"
-FEM = "the tasks' FEM tables (isometric), shown, no target"
 
 
 def grid() -> np.ndarray:
@@ -63,16 +60,11 @@ def geometry(model: mujoco.MjModel, tendon_names, plane: float) -> dict:
     return {"elevation_deg": elev, "L": L, "r": r, "gravity": g}
 
 
-def hill_forces(tendon_names):
-    """force(L (P, T), a) -> (P, T) N of the static estimate, with the parent's parameters of each tendon."""
-    parent = tendons.load_parent()
-    params = [parent[D.FULL_MUSCLES[t]] for t in tendon_names]
-    return lambda L, a: np.stack([statics_v2.tendon_force(L[:, k], p, a) for k, p in enumerate(params)], axis=1)
-
-
-def parent_passive_forces(tendon_names):
-    """As `hill_forces`, with the parent's own passive force-length curve (`tendons.parent_passive`, zero up to
-    stretch 1.15) instead of Blemker's: shown beside the rest and passive targets, as v2 shows it."""
+def hill_forces(tendon_names, parent_passive: bool = False):
+    """force(L (P, T), a) -> (P, T) N of the static estimate, F0 (a f_active(lam) + f_passive(lam)) cos a with the
+    parent's parameters of each tendon (`statics_v2.fibres`); `parent_passive`: the parent's own passive
+    force-length curve (`tendons.parent_passive`, zero up to stretch 1.15) instead of Blemker's, shown beside the
+    rest and passive targets as v2 shows it."""
     parent = tendons.load_parent()
     params = [(parent[D.FULL_MUSCLES[t]], D.FULL_MUSCLES[t]) for t in tendon_names]
 
@@ -80,7 +72,8 @@ def parent_passive_forces(tendon_names):
         out = []
         for k, (p, name) in enumerate(params):
             lam, cos_a = statics_v2.fibres(L[:, k], p)
-            out.append(p.f0 * (a * f_active(lam) + tendons.parent_passive(lam, name)) * cos_a)
+            passive = tendons.parent_passive(lam, name) if parent_passive else f_passive(lam)
+            out.append(p.f0 * (a * f_active(lam) + passive) * cos_a)
         return np.stack(out, axis=1)
     return force
 
@@ -101,8 +94,9 @@ def quantities(geo: dict, force, muscles: dict) -> dict:
     """The rest angle, passive torque and peak isometric torques of one plane; `muscles` {muscle: tendon indices}."""
     elev, L, r, g = geo["elevation_deg"], geo["L"], geo["r"], geo["gravity"]
     f0, f1 = force(L, 0.0), force(L, 1.0)
-    passive = np.einsum("pt,ptc->pc", f0, r)
-    active = np.einsum("pt,ptc->ptc", f1 - f0, r)
+    passive_by_tendon = f0[..., None] * r  # (P, T, 3)
+    passive = passive_by_tendon.sum(axis=1)
+    active = (f1 - f0)[..., None] * r
     win = (elev >= 0.0) & (elev <= V.PASSIVE_MAX_DEG + 1e-9)
     k = np.abs(passive[win]).argmax(axis=0)
     fine = (elev >= 0.0) & (elev <= 120.0 + 1e-9) & (np.abs(elev - np.round(elev)) < 1e-9)
@@ -112,7 +106,7 @@ def quantities(geo: dict, force, muscles: dict) -> dict:
         j = np.abs(tau).argmax(axis=0)
         peaks[m] = {c: {"peak_Nm": float(tau[j[n], n]), "at_deg": float(elev[fine][j[n]])}
                     for n, c in enumerate(GH_COORDINATES)}
-    by_tendon = np.abs(np.einsum("pt,ptc->ptc", f0, r)[win]).max(axis=(0, 2))  # (T,) largest over 0-20 deg, DOFs
+    by_tendon = np.abs(passive_by_tendon[win]).max(axis=(0, 2))  # (T,) largest over 0-20 deg and DOFs
     return {"relaxed_rest_deg": statics.rest_on_grid(elev, passive[:, 1] + g[:, 1]),
             "net_relaxed_elevation_Nm": (passive[:, 1] + g[:, 1]).round(4).tolist(),  # the rest's curve (figure)
             "passive_by_tendon_max_Nm": by_tendon.round(4).tolist(),
@@ -128,13 +122,13 @@ def section(model: mujoco.MjModel, muscles: dict, refs, law=None) -> dict:
     idx = {m: [names.index(t) for t in ts] for m, ts in muscles.items()}
     parent = tendons.load_parent()
     hill, fem = hill_forces(names), (fem_forces(names, law) if law is not None else None)
-    parent_curve = parent_passive_forces(names)
+    parent_curve = hill_forces(names, parent_passive=True)
     out = {}
     for p in PLANES:
         geo = geometry(model, names, p)
         expected = {}
         for m, ts in muscles.items():
-            ref = SOURCE_REFERENCE[D.PATH_SOURCE.get(ts[0], "myoarm")]
+            ref = D.PATH_SOURCE.get(ts[0], "myoarm")  # the path source's moment-arm table
             f0 = sum(parent[D.FULL_MUSCLES[t]].f0 for t in ts)
             expected[m] = {}
             for c in GH_COORDINATES:
