@@ -218,7 +218,10 @@ def muscle_paths(folder: Path | None = None, source: str = "v2", muscles: str = 
     opensim = {r["muscle"] for r in all_rows if r["model"] == "mobl_opensim" and r["record"] == "path_point"}
     out = {}
     for ours, theirs in MUSCLE_SETS[muscles].items():
-        chosen = PATH_SOURCE.get(ours) if source == "v2" else source if theirs in opensim else None
+        if source == "v2":
+            chosen = PATH_SOURCE.get(ours)
+        else:
+            chosen = "mobl_opensim" if source == "mobl_opensim" and theirs in opensim else None
         if chosen == "mobl_arms":
             out[ours] = parent_path(theirs, folder)
             continue
