@@ -1,4 +1,4 @@
-"""`shoulder-bench fem build|verify` (registered by shoulder_bench.cli through `add_parser`)."""
+"""`shoulder-bench fem build|verify|footprint|convergence` (registered by shoulder_bench.cli through `add_parser`)."""
 from __future__ import annotations
 
 import argparse
@@ -77,6 +77,18 @@ def _convergence(args) -> int:
     return 0
 
 
+def _footprint(args) -> int:
+    from shoulder_bench.authoring.fem.footprint import TENDONS
+    from shoulder_bench.authoring.fem.footprint_report import run
+
+    unknown = [t for t in args.tendon or () if t not in TENDONS]
+    if unknown:
+        raise SystemExit(f"shoulder-bench fem footprint: error: no footprint sheet for {', '.join(unknown)}; "
+                         f"choose from {', '.join(TENDONS)}")
+    run(tuple(args.tendon) if args.tendon else TENDONS, "coarse" if args.coarse else "full", args.out)
+    return 0
+
+
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser("fem", help="build or verify the FEM muscle tables")
     sub = p.add_subparsers(dest="fem_command", required=True)
@@ -100,6 +112,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "models/muscles_full): held-out poses re-solved, MuJoCo vs FEM over the 3-DOF pose grid")
     v.add_argument("--coarse", action="store_true", help="with --full: re-solve on coarse sheets (coarse tables)")
     v.set_defaults(func=_verify)
+    f = sub.add_parser("footprint", help="the rotator cuff's footprint sheets (ssp, isp, ssc, tmi) solved in 3-D with "
+                       "contact: their moment arms beside the MJCF tendons' over 72 poses (docs/fem.md)")
+    f.add_argument("--tendon", action="append", help="only this tendon (repeatable; default all)")
+    f.add_argument("--coarse", action="store_true", help="coarse sheets (15 x 5 nodes instead of 31 x 9)")
+    f.add_argument("--out", type=Path, default=None, help="folder for footprint.json and footprint_moment_arms.png")
+    f.set_defaults(func=_footprint)
     c = sub.add_parser("convergence", help="mesh-refinement study of the torque at a few points (slow)")
     c.add_argument("--muscle", type=_muscle, default="ssp")
     c.set_defaults(func=_convergence)

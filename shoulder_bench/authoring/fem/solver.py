@@ -5,6 +5,7 @@ rigidly by the humerus, x = R_x(theta - theta_ref) X. The total energy is
 
     E(x) = sum_e E_e(x)                                   membrane (fibres + co-rotational background)
          + 1/2 kappa sum_i A_i max(0, R - |x_i - c|)^2    penalty contact with the humeral head sphere (c, R)
+                                                   (or a cylinder: the distance from its axis)
          + 1/2 k_reg sum_(interior i) |(L (x - X))_i|^2   small out-of-plane regularisation (umbrella Laplacian)
 
 and equilibrium is grad E = 0 on the free dofs. Newton steps solve H p = -g (sparse LU); a singular tangent gets a small
@@ -108,16 +109,22 @@ class MuscleProblem:
         self.weight = _harmonic_weight(self.mem.triangles, n, self.origin, self.insertion)
         self.centre = np.zeros(3)
         self.radius = anatomy.HUMERAL_HEAD_RADIUS
+        self.axis = None  # contact with the sphere (centre, radius); a unit axis: the infinite cylinder about it
         self.stalled = 0  # solves accepted at stall_factor * tol (reported in the table meta)
 
     # -- energy -----------------------------------------------------------------------------------------------
     def _contact(self, x: np.ndarray):
-        """C2 penalty: e(g) = kappa A g^3 / (6 delta) for penetration g < delta, quadratic beyond.
+        """C2 penalty: e(g) = kappa A g^3 / (6 delta) for penetration g < delta, quadratic beyond (g: the radius less
+        the distance from the centre, or from the axis for a cylinder).
 
         The cubic start keeps the tangent continuous when a node touches the head, so Newton does not chatter
         between contact and no contact.
         """
         d = x - self.centre
+        proj = np.eye(3)
+        if self.axis is not None:  # a cylinder: the distance from its axis
+            proj = proj - np.outer(self.axis, self.axis)
+            d = d @ proj
         r = np.linalg.norm(d, axis=1)
         gap = np.maximum(self.radius - r, 0.0)
         k = self.settings.contact_stiffness * self.node_area
@@ -129,7 +136,7 @@ class MuscleProblem:
         nrm = d / np.maximum(r, 1e-12)[:, None]
         g = -de[:, None] * nrm
         nn = nrm[:, :, None] * nrm[:, None, :]
-        blocks = d2e[:, None, None] * nn - (de / np.maximum(r, 1e-12))[:, None, None] * (np.eye(3) - nn)
+        blocks = d2e[:, None, None] * nn - (de / np.maximum(r, 1e-12))[:, None, None] * (proj - nn)
         return float(e_n.sum()), g.ravel(), blocks
 
     def energy_gradient_hessian(self, x: np.ndarray, activation: float):

@@ -1,0 +1,394 @@
+"""Footprint sheets of the full shoulder (issue 12 §2, first step; docs/fem.md "Footprint sheets"): a muscle's free
+part as a fibre membrane between two attachment lines, lying on the MJCF's wrap surface by contact, solved in 3-D at
+any pose of the 3-DOF model, with the line of action and the torque about each coordinate as outputs of the solve.
+
+Which tendons: the rotator cuff, whose free part (the MJCF path from the last site on the scapula to the first on the
+humerus) is straight or wraps one object: ssp (a sphere), isp (a cylinder), ssc (a sphere), tmi (straight). The
+other tendons wrap two or more objects between their bones; they need contact with several surfaces (not done).
+
+Geometry. The origin line is centred on the last scapular site P, the insertion line on the first humerus site Q,
+both along n = (P - c) x (Q - c) at the reference pose (c: the wrap object's centre, or the joint centre for a
+straight tendon), each fixed in its bone's frame. Insertion line length: the tendon's insertional footprint across
+its fibres, Curtis et al. 2006 (FOOTPRINT_M). The origin line has the same length: the free part begins where the
+tendon leaves the bone, and no source gives the belly's width there (a stated assumption). A fibre runs from a point
+of the origin line to the matching point of the insertion line. Its initial shape at a pose is MuJoCo's wrapped path
+(`wrap_geodesic`: straight, or tangent-arc-tangent over the sphere, a helix on the cylinder, on the side of the
+wrap's side site); then the solve decides where the sheet lies: the contact with the surface is the solver's penalty
+(`solver.MuscleProblem`), not a prescribed path. The wrap objects are the MoBL parent's (as the MJCF has them:
+MuJoCo wraps spheres and cylinders only), standing in for the humeral head.
+
+Reference (stress-free, fibres at optimal length): the sheet at REFERENCE_POSE_DEG. The sheet is all fibre (no
+tendon in series): these solves are about the line of action, which barely depends on how the force is made.
+
+Reduction. At equilibrium the sheet pulls on the scapula at its origin nodes, on the humerus at its insertion nodes
+and pushes the wrap object's body at the nodes in contact. Each force acts at its node; its generalised force is
+J_body(x)^T f (MuJoCo's `mj_jac` of the body at that point), and the coordinates' share is S^T (S the coupling
+slopes, `full_arm.Pose.slopes`), as for the MuJoCo tendon. Divided by the tension (the magnitude of the origin's
+resultant, the pull of a straight first segment), it is the FEM's moment arm about each coordinate, to be set
+beside the MJCF tendon's r = -ten_J S (`compare`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from shoulder_bench import full_arm
+from shoulder_bench.authoring.fem.material import Blemker, Material
+from shoulder_bench.authoring.fem.membrane import membrane_tangent
+from shoulder_bench.authoring.fem.shells import grid_triangles
+from shoulder_bench.authoring.fem.solver import MuscleProblem, NoConvergence, SolverSettings
+
+# Maximum insertional length of each tendon's footprint on the humerus (across its fibres), m: Curtis AS, Burbank KM,
+# Tierney JJ, Scheller AD, Curran AR. The insertional footprint of the rotator cuff: an anatomic study. Arthroscopy
+# 2006;22(6):609.e1 (20 cadavers; length x width: subscapularis 40 x 20, infraspinatus 29 x 19, supraspinatus
+# 23 x 16, teres minor 29 x 21 mm).
+FOOTPRINT_M = {"ssp": 0.023, "isp": 0.029, "ssc": 0.040, "tmi": 0.029}
+TENDONS = tuple(FOOTPRINT_M)
+REFERENCE_POSE_DEG = (30.0, 45.0, 0.0)  # plane, elevation, rotation: mid-range of the tasks' pose space
+RESOLUTION = {"full": (31, 9), "coarse": (15, 5)}  # nodes along the fibres, across
+ACTIVATION_STEPS = (0.25, 0.5, 0.75, 1.0)  # fractions of the activation, ramped at the reference pose
+POSE_STEP_DEG = 10.0  # largest continuation step in any coordinate
+SETTINGS = SolverSettings(max_step_activation=0.25, max_iter=60)
+
+
+@dataclass(frozen=True)
+class FreePart:
+    """Where a tendon's free part runs in the model: proximal site P, humerus site Q, optional wrap object."""
+
+    tendon: str
+    origin_site: int
+    insertion_site: int
+    wrap: int | None  # geom id of the wrap sphere or cylinder, or None (straight)
+    sidesite: int | None  # the wrap's side site, if any
+
+
+def path_items(m: mujoco.MjModel, tendon: str) -> list[tuple[int, int]]:
+    """The tendon's path as (mjtWrap type, object id) in model order."""
+    t = m.tendon(tendon).id
+    span = range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t])
+    return [(int(m.wrap_type[w]), int(m.wrap_objid[w])) for w in span]
+
+
+def free_part(m: mujoco.MjModel, tendon: str) -> FreePart:
+    """The tendon's free part: the first humerus site of its path, the next site (on another body) and the sphere or
+    cylinder between them, if any. Refused for a free part wrapping more than one object."""
+    hum = m.body("humerus").id
+    items = path_items(m, tendon)
+    site = int(mujoco.mjtWrap.mjWRAP_SITE)
+    if items[0][0] != site or m.site_bodyid[items[0][1]] != hum:
+        raise ValueError(f"{tendon}: its path does not start on the humerus")
+    k = 1
+    while items[k][0] != site:
+        k += 1
+    if m.site_bodyid[items[k][1]] == hum:
+        raise ValueError(f"{tendon}: its second site is on the humerus too (a path this module does not drape)")
+    if k > 2:
+        raise ValueError(f"{tendon}: its free part wraps {k - 1} objects, not one (no contact for that yet)")
+    if k == 1:
+        return FreePart(tendon, items[k][1], items[0][1], None, None)
+    w = int(m.tendon_adr[m.tendon(tendon).id]) + 1
+    side = int(m.wrap_prm[w])
+    return FreePart(tendon, items[k][1], items[0][1], items[1][1], side if side >= 0 else None)
+
+
+def _segments_cross(a0, a1, b0, b1) -> bool:
+    """Whether the 2-D segments a0-a1 and b0-b1 intersect."""
+    da, db = a1 - a0, b1 - b0
+    det = da[0] * db[1] - da[1] * db[0]
+    if abs(det) < 1e-15:
+        return False
+    w = b0 - a0
+    u, v = (w[0] * db[1] - w[1] * db[0]) / det, (w[0] * da[1] - w[1] * da[0]) / det
+    return bool(0.0 <= u <= 1.0 and 0.0 <= v <= 1.0)
+
+
+def wrap_geodesic(p, q, centre, radius: float, n: int, axis=None, side=None) -> tuple[np.ndarray, float]:
+    """n points equally spaced along the shortest path from p to q around a sphere (axis None) or an infinite
+    cylinder (unit `axis`) of `radius` about `centre`, on the side of the point `side` if given, as MuJoCo wraps:
+    in the plane through the centre, p and q (sphere) or in the projection along the axis with the axial
+    coordinate linear in the projected arc length (cylinder: a helix); straight where the segment clears the object
+    (and, with a side point, passes on its side) or an end lies inside it. Returns (points (n, 3), length)."""
+    p, q, c = (np.asarray(v, float) for v in (p, q, centre))
+    a = np.zeros(3) if axis is None else np.asarray(axis, float) / np.linalg.norm(axis)
+    pp, qq = p - c - ((p - c) @ a) * a, q - c - ((q - c) @ a) * a
+    u = pp / np.linalg.norm(pp)
+    v = qq - (qq @ u) * u
+    v = v / np.linalg.norm(v) if np.linalg.norm(v) > 1e-12 else np.cross(a, u)
+    p2, q2 = np.array([pp @ u, pp @ v]), np.array([qq @ u, qq @ v])
+    zp, zq = (p - c) @ a, (q - c) @ a
+    s = np.linspace(0.0, 1.0, n)
+    seg = q2 - p2
+    h = np.clip(-(p2 @ seg) / (seg @ seg), 0.0, 1.0)
+    closest = p2 + h * seg
+    s2 = None if side is None else np.array([(side - c) @ u, (side - c) @ v])
+    clears = np.linalg.norm(closest) >= radius
+    rp, rq = np.linalg.norm(p2), np.linalg.norm(q2)
+    inside = min(rp, rq) < radius  # an end inside the object: MuJoCo does not wrap
+    if inside or (clears and (s2 is None or closest @ s2 >= 0.0)):
+        return p + s[:, None] * (q - p), float(np.linalg.norm(q - p))
+    ap, aq = np.arccos(min(1.0, radius / rp)), np.arccos(min(1.0, radius / rq))
+    tq = np.arctan2(q2[1], q2[0])
+    side2 = None if s2 is None else radius * s2 / np.linalg.norm(s2)
+    candidates = []
+    for sign in (1.0, -1.0):  # leave p counter-clockwise, clockwise
+        start, end = sign * ap, tq - sign * aq
+        sweep = np.mod(sign * (end - start), 2 * np.pi)
+        t1, t2 = radius * np.array([np.cos(start), np.sin(start)]), radius * np.array([np.cos(end), np.sin(end)])
+        # MuJoCo's choice: the tangent pair whose chord midpoint points to the side site, else the closer pair;
+        # a pair whose two straight pieces cross each other is out
+        good = (t1 + t2) @ side2 / max(np.linalg.norm(t1 + t2), 1e-15) if side2 is not None else -np.sum((t1 - t2) ** 2)
+        crossed = _segments_cross(p2, t1, q2, t2)
+        candidates.append((-1e4 if crossed else good, crossed, sign, start, sweep))
+    _, crossed, sign, start, sweep = max(candidates, key=lambda x: x[0])
+    if crossed:  # MuJoCo does not wrap then
+        return p + s[:, None] * (q - p), float(np.linalg.norm(q - p))
+    l1, l3 = np.sqrt(max(rp**2 - radius**2, 0.0)), np.sqrt(max(rq**2 - radius**2, 0.0))
+    l2 = radius * sweep
+    planar = l1 + l2 + l3
+    t1 = radius * np.array([np.cos(start), np.sin(start)])
+    t2 = radius * np.array([np.cos(start + sign * sweep), np.sin(start + sign * sweep)])
+    d = s * planar
+    out2 = np.empty((n, 2))
+    first, arc = d <= l1, (d > l1) & (d < l1 + l2)
+    last = ~(first | arc)
+    out2[first] = p2 + (d[first] / max(l1, 1e-15))[:, None] * (t1 - p2)
+    ang = start + sign * (d[arc] - l1) / radius
+    out2[arc] = radius * (1.0 + 1e-9) * np.stack([np.cos(ang), np.sin(ang)], 1)
+    out2[last] = t2 + ((d[last] - l1 - l2) / max(l3, 1e-15))[:, None] * (q2 - t2)
+    z = zp + s * (zq - zp)
+    pts = c + out2[:, :1] * u + out2[:, 1:] * v + z[:, None] * a
+    return pts, float(np.hypot(planar, zq - zp))
+
+
+class FootprintSheet:
+    """One tendon's footprint sheet on the full model: build it at the reference pose, solve it at any pose."""
+
+    def __init__(self, tendon: str, resolution: str | tuple[int, int] = "coarse", width_m: float | None = None,
+                 pose: full_arm.Pose | None = None, material: Material | None = None):
+        if tendon not in FOOTPRINT_M and width_m is None:
+            raise ValueError(f"no footprint for {tendon!r}; tendons with one: {', '.join(TENDONS)}")
+        self.pose = pose or full_arm.Pose()
+        self.m, self.d = self.pose.m, mujoco.MjData(self.pose.m)
+        self.part = free_part(self.m, tendon)
+        self.width = float(FOOTPRINT_M[tendon] if width_m is None else width_m)
+        self.ns, self.nt = RESOLUTION[resolution] if isinstance(resolution, str) else resolution
+        self.bodies = {"origin": int(self.m.site_bodyid[self.part.origin_site]),
+                       "insertion": int(self.m.site_bodyid[self.part.insertion_site]),
+                       "wrap": int(self.m.geom_bodyid[self.part.wrap]) if self.part.wrap is not None else None}
+        self._set(REFERENCE_POSE_DEG)
+        p, q, c = self._ends()
+        n = np.cross(p - c, q - c)
+        self.across = {k: self._to_body(k, n / np.linalg.norm(n), vector=True) for k in ("origin", "insertion")}
+        X = self.draped()
+        tri = grid_triangles(self.ns, self.nt)
+        st = np.stack(np.meshgrid(np.linspace(0, 1, self.ns), np.linspace(-0.5, 0.5, self.nt), indexing="ij"), -1)
+        st = st.reshape(-1, 2)
+        ds = np.stack([X[tri[:, 1]] - X[tri[:, 0]], X[tri[:, 2]] - X[tri[:, 0]]], axis=2)
+        dst = np.stack([st[tri[:, 1]] - st[tri[:, 0]], st[tri[:, 2]] - st[tri[:, 0]]], axis=2)
+        fibres = (ds @ np.linalg.inv(dst))[:, :, 0]
+        fibres /= np.linalg.norm(fibres, axis=1, keepdims=True)
+        f0 = _f0(tendon)
+        idx = np.arange(self.ns * self.nt).reshape(self.ns, self.nt)
+        shell = {"muscle": np.array(tendon), "nodes": X, "triangles": tri, "fibres": fibres,
+                 "thickness": f0 / Blemker().sigma_max / self.width, "origin_nodes": idx[0],
+                 "insertion_nodes": idx[-1], "theta_ref_deg": np.array(0.0)}
+        self.problem = _Problem(shell, material or Material(), SETTINGS, f0)
+        self.reference = {k: (self._frame(k), X[self.problem.nodes_of(k)]) for k in ("origin", "insertion")}
+        self.f0 = f0
+        self.reference_length = self.central_length()
+        self._at_reference = {}  # activation -> the solution at the reference pose
+
+    # -- kinematics -------------------------------------------------------------------------------------------------
+    def _set(self, pose_deg):
+        self.d.qpos[:] = self.pose.qpos(pose_deg)[0]
+        mujoco.mj_kinematics(self.m, self.d)
+        mujoco.mj_comPos(self.m, self.d)
+        self.pose_deg = np.asarray(pose_deg, float)
+
+    def _frame(self, which: str):
+        b = self.bodies[which]
+        return self.d.xpos[b].copy(), self.d.xmat[b].reshape(3, 3).copy()
+
+    def _to_body(self, which, v, vector=False):
+        pos, rot = self._frame(which)
+        return rot.T @ (v if vector else v - pos)
+
+    def _ends(self):
+        p = self.d.site_xpos[self.part.origin_site].copy()
+        q = self.d.site_xpos[self.part.insertion_site].copy()
+        if self.part.wrap is not None:
+            c = self.d.geom_xpos[self.part.wrap].copy()
+        else:
+            c = self.d.xanchor[self.m.joint("shoulder_elv").id].copy()
+        return p, q, c
+
+    def _radius(self) -> float:
+        return float(self.m.geom_size[self.part.wrap, 0]) if self.part.wrap is not None else 0.0
+
+    def _axis(self) -> np.ndarray | None:
+        """The wrap cylinder's axis (its geom z axis) at the current pose; None for a sphere or no wrap."""
+        w = self.part.wrap
+        if w is None or self.m.geom_type[w] != mujoco.mjtGeom.mjGEOM_CYLINDER:
+            return None
+        return self.d.geom_xmat[w].reshape(3, 3)[:, 2].copy()
+
+    def draped(self) -> np.ndarray:
+        """(ns nt, 3) the sheet's initial shape at the current pose: each fibre MuJoCo's wrapped path (`wrap_geodesic`,
+        on the side of the wrap's side site) from its origin-line point to its insertion-line point."""
+        p, q, c = self._ends()
+        side = None if self.part.sidesite is None else self.d.site_xpos[self.part.sidesite]
+        out = np.empty((self.ns, self.nt, 3))
+        for j, t in enumerate(np.linspace(-0.5, 0.5, self.nt)):
+            pj = p + t * self.width * self._frame("origin")[1] @ self.across["origin"]
+            qj = q + t * self.width * self._frame("insertion")[1] @ self.across["insertion"]
+            if self.part.wrap is None:
+                out[:, j] = pj + np.linspace(0, 1, self.ns)[:, None] * (qj - pj)
+            else:
+                out[:, j] = wrap_geodesic(pj, qj, c, self._radius(), self.ns, self._axis(), side)[0]
+        return out.reshape(-1, 3)
+
+    def central_length(self) -> float:
+        """The length of the central fibre's initial shape at the current pose (m): MuJoCo's free length, if the
+        geometry is MuJoCo's."""
+        p, q, c = self._ends()
+        if self.part.wrap is None:
+            return float(np.linalg.norm(q - p))
+        side = None if self.part.sidesite is None else self.d.site_xpos[self.part.sidesite]
+        return wrap_geodesic(p, q, c, self._radius(), 2, self._axis(), side)[1]
+
+    def boundary(self) -> dict:
+        """The origin and insertion nodes at the current pose: the reference ones carried by their bones."""
+        out = {}
+        for k, ((pos0, rot0), x0) in self.reference.items():
+            pos, rot = self._frame(k)
+            out[k] = (x0 - pos0) @ rot0 @ rot.T + pos
+        return out
+
+    # -- solve and reduce ---------------------------------------------------------------------------------------------
+    def solve(self, pose_deg, activation: float = 1.0) -> dict:
+        """Equilibrium at `pose_deg` (plane, elevation, rotation) and `activation`; returns the nodes, the tension
+        (N), the generalised force about the three coordinates (N m), the FEM moment arms (m) and the contact force
+        on the wrap object (N).
+
+        Continuation: the activation is ramped to `activation` at the reference pose; then the pose moves from there
+        in steps of at most POSE_STEP_DEG per coordinate (halved where Newton fails), each predicted by the change of
+        the draped shape."""
+        pb = self.problem
+        target = np.asarray(pose_deg, float)
+        start = np.asarray(REFERENCE_POSE_DEG, float)
+        if activation not in self._at_reference:
+            self._place(start)
+            x, a0 = pb.predict(self.draped(), 0.0, 0.0), 0.0
+            for a in [s * activation for s in ACTIVATION_STEPS]:
+                x, _ = pb.step(x, (0.0, a0), (0.0, a))
+                a0 = a
+            self._at_reference[activation] = x
+        x, at = self._at_reference[activation], start
+        n = max(1, int(np.ceil(np.max(np.abs(target - start)) / POSE_STEP_DEG - 1e-9)))
+        frac, done = 1.0 / n, 0.0
+        while done < 1.0 - 1e-12:
+            f = min(frac, 1.0 - done)
+            nxt = start + (done + f) * (target - start)
+            self._place(at)
+            before = self.draped()
+            self._place(nxt)
+            try:
+                x_new, _ = pb.newton(pb.predict(x + self.draped() - before, 0.0, 0.0), activation)
+            except NoConvergence:
+                frac = f / 2.0
+                if frac < SETTINGS.min_step_fraction / n:
+                    raise NoConvergence(f"{self.part.tendon} at pose {tuple(target)}: no equilibrium on the way "
+                                        f"from {tuple(at)}") from None
+                continue
+            x, at, done = x_new, nxt, done + f
+        return self.reduce(x, activation)
+
+    def _place(self, pose_deg):
+        self._set(pose_deg)
+        b = self.boundary()
+        self.problem.place(b["origin"], b["insertion"], self._ends()[2], self._radius(), self._axis())
+
+    def reduce(self, x: np.ndarray, activation: float) -> dict:
+        pb = self.problem
+        _, g, _ = membrane_tangent(pb.mem, pb.kernel, x, activation)
+        g = (g + pb.reg_matrix @ (x - pb.X).ravel()).reshape(-1, 3)
+        gc = pb._contact(x)[1].reshape(-1, 3)
+        q_nv = np.zeros(self.m.nv)
+        jacp = np.zeros((3, self.m.nv))
+        loads = [("origin", i, -g[i]) for i in pb.nodes_of("origin")]
+        loads += [("insertion", i, -g[i]) for i in pb.nodes_of("insertion")]
+        if self.part.wrap is not None:  # the free nodes push the wrap's body where they touch it
+            loads += [("wrap", i, gc[i]) for i in pb.free if np.any(gc[i] != 0.0)]
+        for which, i, f in loads:
+            mujoco.mj_jac(self.m, self.d, jacp, None, x[i], self.bodies[which])
+            q_nv += jacp.T @ f
+        q3 = self.pose.slopes(self.pose_deg).T @ q_nv
+        tension = float(np.linalg.norm(-g[pb.nodes_of("origin")].sum(0)))
+        contact = float(np.linalg.norm(gc[pb.free].sum(0)))
+        return {"nodes": x, "tension_N": tension, "torque_Nm": q3, "moment_arm_m": q3 / tension,
+                "contact_N": contact, "pose_deg": self.pose_deg.copy(), "activation": activation,
+                "stretch": self.central_length() / self.reference_length}
+
+    def mjcf_moment_arm(self, pose_deg) -> np.ndarray:
+        """(3,) the MJCF tendon's moment arms about plane, elevation, rotation at `pose_deg` (m)."""
+        return self.pose.tendon_geometry(pose_deg, (self.part.tendon,))[1][0, 0]
+
+    def free_length_mjcf(self, pose_deg) -> float:
+        """The MJCF tendon's length less its fixed part (the sites beyond P on the proximal bone), m."""
+        length = float(self.pose.tendon_geometry(pose_deg, (self.part.tendon,))[0][0, 0])
+        sites = [i for kind, i in path_items(self.m, self.part.tendon) if kind == int(mujoco.mjtWrap.mjWRAP_SITE)]
+        rest = sites[sites.index(self.part.origin_site):]
+        self._set(pose_deg)
+        fixed = sum(np.linalg.norm(self.d.site_xpos[a] - self.d.site_xpos[b]) for a, b in zip(rest[:-1], rest[1:]))
+        return length - float(fixed)
+
+
+def _f0(tendon: str) -> float:
+    """The tendon's maximum isometric force (the MoBL parent's F0, as the length-driven sheets), N."""
+    from shoulder_bench.authoring import mobl_data, tendons
+
+    return float(tendons.load_parent()[mobl_data.FULL_MUSCLES[tendon]].f0)
+
+
+class _Problem(MuscleProblem):
+    """`MuscleProblem` with its boundary nodes placed by the pose (not rotated about one axis) and the contact
+    surface (sphere or cylinder) where the pose puts it."""
+
+    def nodes_of(self, which: str) -> np.ndarray:
+        return self.origin if which == "origin" else self.insertion
+
+    def place(self, origin_xyz, insertion_xyz, centre, radius, axis=None):
+        self._origin_xyz, self._insertion_xyz = origin_xyz, insertion_xyz
+        self.centre, self.radius, self.axis = np.asarray(centre, float), float(radius), axis
+
+    def predict(self, x: np.ndarray, theta_from: float, theta_to: float) -> np.ndarray:
+        y = x.copy()
+        y[self.origin], y[self.insertion] = self._origin_xyz, self._insertion_xyz
+        return y
+
+
+def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None = None, progress=None) -> dict:
+    """FEM vs MJCF moment arms of `tendon` at `poses_deg` (P, 3): arrays (P, 3) in m (NaN where the sheet found no
+    equilibrium: `converged`), the tensions and contact forces (N), the central fibre's stretch (its initial shape's
+    length over the reference's). progress: called after each pose."""
+    sheet = FootprintSheet(tendon, resolution, width_m)
+    poses = np.atleast_2d(np.asarray(poses_deg, float))
+    out = {"fem_m": np.full((len(poses), 3), np.nan), "mjcf_m": np.zeros((len(poses), 3)),
+           "tension_N": np.full(len(poses), np.nan), "contact_N": np.full(len(poses), np.nan),
+           "converged": np.zeros(len(poses), bool), "stretch": np.zeros(len(poses))}
+    for k, p in enumerate(poses):
+        out["mjcf_m"][k] = sheet.mjcf_moment_arm(p)
+        sheet._set(p)
+        out["stretch"][k] = sheet.central_length() / sheet.reference_length
+        try:
+            s = sheet.solve(p)
+        except NoConvergence:
+            s = None
+        if s is not None:
+            out["fem_m"][k], out["tension_N"][k] = s["moment_arm_m"], s["tension_N"]
+            out["contact_N"][k], out["converged"][k] = s["contact_N"], True
+        if progress is not None:
+            progress()
+    return {"tendon": tendon, "poses_deg": poses, "width_m": sheet.width, "resolution": (sheet.ns, sheet.nt), **out}

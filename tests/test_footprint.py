@@ -1,0 +1,94 @@
+"""Footprint sheets of the full shoulder (issue 12 §2, first step): the sheet's geometry follows the model's bones, its
+reduction gives back the MJCF moment arms when the sheet is a line, and with the real footprint the solved line of
+action is its own (shoulder_bench/authoring/fem/footprint.py, docs/fem.md "Footprint sheets")."""
+import numpy as np
+import pytest
+
+from shoulder_bench.authoring.fem import footprint as F
+from shoulder_bench.cli.fem import main as fem_main
+
+POSES = [(30.0, 45.0, 0.0), (0.0, 10.0, 0.0), (60.0, 100.0, 30.0), (90.0, 130.0, -40.0)]
+
+
+@pytest.fixture(scope="module")
+def pose():
+    from shoulder_bench import full_arm
+
+    return full_arm.Pose()
+
+
+@pytest.mark.parametrize("tendon", F.TENDONS)
+def test_the_sheets_fibres_start_on_mujocos_wrapped_path(tendon, pose):
+    """The central fibre's initial shape (sphere: tangent-arc-tangent, cylinder: a helix, on the side site's side,
+    straight where an end is inside the object) has the MJCF tendon's free length at the report's 72 poses (the
+    pose space's ends and middle) and 20 random ones, and its 15-node polyline nearly so."""
+    from shoulder_bench.authoring.fem.footprint_report import report_poses
+
+    sheet = F.FootprintSheet(tendon, "coarse", pose=pose)
+    rng = np.random.default_rng(0)
+    for p in np.r_[report_poses(), np.c_[rng.uniform(0, 90, 20), rng.uniform(0, 140, 20), rng.uniform(-45, 60, 20)]]:
+        mjcf = sheet.free_length_mjcf(p)
+        sheet._set(p)
+        assert sheet.central_length() == pytest.approx(mjcf, abs=1e-6), p
+        centre = sheet.draped().reshape(sheet.ns, sheet.nt, 3)[:, sheet.nt // 2]
+        assert np.linalg.norm(np.diff(centre, axis=0), axis=1).sum() == pytest.approx(mjcf, abs=3e-4), p
+
+
+@pytest.mark.parametrize("tendon", ["ssp", "isp", "ssc"])
+def test_a_narrow_sheet_gives_back_the_mjcf_moment_arms(tendon, pose):
+    """A 1 mm sheet is nearly MuJoCo's line: its solved generalised force over its tension (origin, insertion and
+    contact forces through the bodies' Jacobians and the coupling slopes) must equal -ten_J S to within 1 mm, in
+    poses with and without contact on the wrap sphere."""
+    sheet = F.FootprintSheet(tendon, "coarse", width_m=0.001, pose=pose)
+    contacts = []
+    for p in POSES[1:3]:
+        s = sheet.solve(p)
+        contacts.append(s["contact_N"])
+        np.testing.assert_allclose(s["moment_arm_m"], sheet.mjcf_moment_arm(p), atol=1e-3)
+        assert s["tension_N"] > 0.3 * sheet.f0  # active at a = 1: the sheet pulls
+    if tendon == "ssp":
+        assert contacts[0] > 10.0 and contacts[1] == 0.0  # both cases were exercised
+    if tendon == "isp":  # the cylinder
+        s = sheet.solve((90.0, 0.0, 60.0))
+        assert s["contact_N"] > 100.0
+        np.testing.assert_allclose(s["moment_arm_m"], sheet.mjcf_moment_arm((90.0, 0.0, 60.0)), atol=1e-3)
+
+
+def test_with_its_footprint_the_sheets_line_of_action_is_its_own(pose):
+    """Infraspinatus at plane 90, elevation 100, external rotation 45 (fibres at stretch 0.61, taut): the 1 mm sheet
+    clears its cylinder and gives back the MJCF moment arms; the 29 mm sheet (Curtis 2006) touches the cylinder
+    with its lateral fibres and its solved moment arms differ from the MJCF line's by more than 3 mm: the line of
+    action is an output of the solve, not the MJCF path's."""
+    p = (90.0, 100.0, -45.0)
+    narrow = F.FootprintSheet("isp", "coarse", width_m=0.001, pose=pose).solve(p)
+    sheet = F.FootprintSheet("isp", "coarse", pose=pose)
+    wide = sheet.solve(p)
+    mjcf = sheet.mjcf_moment_arm(p)
+    assert narrow["contact_N"] == 0.0 and wide["contact_N"] > 50.0
+    np.testing.assert_allclose(narrow["moment_arm_m"], mjcf, atol=1e-3)
+    assert np.max(np.abs(wide["moment_arm_m"] - mjcf)) > 3e-3
+
+
+def test_paths_it_cannot_drape_and_tendons_without_a_footprint_are_refused(pose):
+    with pytest.raises(ValueError, match="second site is on the humerus too"):
+        F.free_part(pose.m, "dmi")
+    with pytest.raises(ValueError, match="does not start on the humerus"):
+        F.free_part(pose.m, "dpo")
+    with pytest.raises(ValueError, match="no footprint for 'dan'"):
+        F.FootprintSheet("dan", pose=pose)
+    with pytest.raises(SystemExit, match="no footprint sheet for dmi"):
+        fem_main(["footprint", "--tendon", "dmi"])
+
+
+def test_the_report_summarises_converged_poses_and_the_taut_ones_apart():
+    from shoulder_bench.authoring.fem.footprint_report import summary
+
+    res = {"tendon": "x", "width_m": 0.02, "converged": np.array([True, True, False]),
+           "fem_m": np.array([[0.011, 0.0, 0.0], [0.0, 0.0, 0.0], [np.nan] * 3]),
+           "mjcf_m": np.array([[0.010, 0.0, 0.002], [0.004, 0.0, 0.0], [0.0] * 3]),
+           "contact_N": np.array([5.0, 1.0, np.nan]), "stretch": np.array([1.0, 0.5, 1.0])}
+    s = summary(res)
+    assert (s["converged"], s["active_poses"], s["poses"]) == (2, 1, 3)
+    assert s["active"]["plane"]["max_diff_mm"] == pytest.approx(1.0)
+    assert s["active"]["rotation"]["rms_diff_mm"] == pytest.approx(2.0)
+    assert s["all"]["plane"]["max_diff_mm"] == pytest.approx(4.0)  # the slack pose (stretch 0.5) counts in "all"
