@@ -92,3 +92,33 @@ def test_the_report_summarises_converged_poses_and_the_taut_ones_apart():
     assert s["active"]["plane"]["max_diff_mm"] == pytest.approx(1.0)
     assert s["active"]["rotation"]["rms_diff_mm"] == pytest.approx(2.0)
     assert s["all"]["plane"]["max_diff_mm"] == pytest.approx(4.0)  # the slack pose (stretch 0.5) counts in "all"
+
+
+def test_on_the_humeral_head_a_narrow_sheet_pulls_along_its_geodesic(pose):
+    """With contact on the humeral head sphere (fitted to the parent's humerus), a 1 mm sheet's solved moment arms
+    equal -dL/dq of its central fibre's geodesic over the head (finite differences through the couplings), the
+    definition MuJoCo's tendon Jacobian follows: the reduction holds for a surface the MJCF does not have."""
+    sheet = F.FootprintSheet("ssp", "coarse", width_m=0.001, pose=pose, surface="head")
+    p = np.array([0.0, 10.0, 0.0])
+    s = sheet.solve(p)
+    assert s["contact_N"] > 10.0
+    h = 0.05
+    fd = []
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = h
+        sheet._set(p + e)
+        up = sheet.central_length()
+        sheet._set(p - e)
+        fd.append(-(up - sheet.central_length()) / np.radians(2 * h))
+    np.testing.assert_allclose(s["moment_arm_m"], fd, atol=1e-3)
+
+
+def test_the_head_is_a_sphere_about_the_joint_centre_and_the_cuff_insertions_inside_it_are_refused(pose):
+    centre, radius = np.asarray(F.HUMERAL_HEAD["centre_m"]), F.HUMERAL_HEAD["radius_m"]
+    assert np.linalg.norm(centre) < 3e-3 and 0.019 <= radius <= 0.028  # Iannotti 1992: 24 mm (19-28)
+    for tendon in ("ssc", "tmi"):
+        with pytest.raises(ValueError, match="insertion site lies inside the humeral head sphere"):
+            F.FootprintSheet(tendon, "coarse", pose=pose, surface="head")
+    with pytest.raises(ValueError, match="unknown contact surface"):
+        F.FootprintSheet("ssp", pose=pose, surface="glenoid")

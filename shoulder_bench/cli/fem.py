@@ -85,7 +85,7 @@ def _footprint(args) -> int:
     if unknown:
         raise SystemExit(f"shoulder-bench fem footprint: error: no footprint sheet for {', '.join(unknown)}; "
                          f"choose from {', '.join(TENDONS)}")
-    run(tuple(args.tendon) if args.tendon else TENDONS, "coarse" if args.coarse else "full", args.out)
+    run(tuple(args.tendon) if args.tendon else TENDONS, "coarse" if args.coarse else "full", args.out, args.surface)
     return 0
 
 
@@ -117,6 +117,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     f.add_argument("--tendon", action="append", help="only this tendon (repeatable; default all)")
     f.add_argument("--coarse", action="store_true", help="coarse sheets (15 x 5 nodes instead of 31 x 9)")
     f.add_argument("--out", type=Path, default=None, help="folder for footprint.json and footprint_moment_arms.png")
+    f.add_argument("--surface", choices=("wrap", "head"), default="wrap",
+                   help="contact with the MJCF's wrap objects (default) or with the humeral head sphere fitted to the "
+                   "MoBL parent's humerus (ssp and isp; footprint_head.json)")
     f.set_defaults(func=_footprint)
     c = sub.add_parser("convergence", help="mesh-refinement study of the torque at a few points (slow)")
     c.add_argument("--muscle", type=_muscle, default="ssp")

@@ -46,6 +46,11 @@ from shoulder_bench.authoring.fem.solver import MuscleProblem, NoConvergence, So
 # 23 x 16, teres minor 29 x 21 mm).
 FOOTPRINT_M = {"ssp": 0.023, "isp": 0.029, "ssc": 0.040, "tmi": 0.029}
 TENDONS = tuple(FOOTPRINT_M)
+# The humeral head of the MoBL-ARMS parent's humerus surface (humerus.vtp of osim-rl 3.0.11's MoBL_ARMS_J.osim) as a
+# sphere in the humerus frame: `python models/reference/scripts/humeral_head.py <humerus.vtp>` (62 vertices, RMS
+# residual 0.89 mm). Cf. the 24 mm mean radius of curvature of Iannotti et al. 1992 (J Bone Joint Surg Am 74:491).
+HUMERAL_HEAD = {"centre_m": (0.00042, -0.00053, 0.0019), "radius_m": 0.02432}
+SURFACES = ("wrap", "head")  # contact with the MJCF's wrap object, or with the humeral head sphere
 REFERENCE_POSE_DEG = (30.0, 45.0, 0.0)  # plane, elevation, rotation: mid-range of the tasks' pose space
 RESOLUTION = {"full": (31, 9), "coarse": (15, 5)}  # nodes along the fibres, across
 ACTIVATION_STEPS = (0.25, 0.5, 0.75, 1.0)  # fractions of the activation, ramped at the reference pose
@@ -166,19 +171,27 @@ class FootprintSheet:
     """One tendon's footprint sheet on the full model: build it at the reference pose, solve it at any pose."""
 
     def __init__(self, tendon: str, resolution: str | tuple[int, int] = "coarse", width_m: float | None = None,
-                 pose: full_arm.Pose | None = None, material: Material | None = None):
+                 pose: full_arm.Pose | None = None, material: Material | None = None, surface: str = "wrap"):
         if tendon not in FOOTPRINT_M and width_m is None:
             raise ValueError(f"no footprint for {tendon!r}; tendons with one: {', '.join(TENDONS)}")
+        if surface not in SURFACES:
+            raise ValueError(f"unknown contact surface {surface!r}; choose from {', '.join(SURFACES)}")
         self.pose = pose or full_arm.Pose()
         self.m, self.d = self.pose.m, mujoco.MjData(self.pose.m)
         self.part = free_part(self.m, tendon)
+        self.surface = surface
         self.width = float(FOOTPRINT_M[tendon] if width_m is None else width_m)
         self.ns, self.nt = RESOLUTION[resolution] if isinstance(resolution, str) else resolution
         self.bodies = {"origin": int(self.m.site_bodyid[self.part.origin_site]),
                        "insertion": int(self.m.site_bodyid[self.part.insertion_site]),
-                       "wrap": int(self.m.geom_bodyid[self.part.wrap]) if self.part.wrap is not None else None}
+                       "wrap": int(self.m.geom_bodyid[self.part.wrap]) if self.part.wrap is not None else None,
+                       "head": int(self.m.body("humerus").id)}
         self._set(REFERENCE_POSE_DEG)
         p, q, c = self._ends()
+        inside = [k for k, x in (("origin", p), ("insertion", q)) if np.linalg.norm(x - c) < HUMERAL_HEAD["radius_m"]]
+        if surface == "head" and inside:
+            raise ValueError(f"{tendon}: its {inside[0]} site lies inside the humeral head sphere; no contact with the "
+                             "head for it")
         n = np.cross(p - c, q - c)
         self.across = {k: self._to_body(k, n / np.linalg.norm(n), vector=True) for k in ("origin", "insertion")}
         X = self.draped()
@@ -215,48 +228,52 @@ class FootprintSheet:
         pos, rot = self._frame(which)
         return rot.T @ (v if vector else v - pos)
 
+    def _contact_surface(self):
+        """(centre, radius, axis or None, side point or None, body key) of the contact surface at the current pose,
+        or None (a straight tendon with surface="wrap")."""
+        if self.surface == "head":
+            pos, rot = self._frame("head")
+            return pos + rot @ np.asarray(HUMERAL_HEAD["centre_m"]), HUMERAL_HEAD["radius_m"], None, None, "head"
+        w = self.part.wrap
+        if w is None:
+            return None
+        axis = self.d.geom_xmat[w].reshape(3, 3)[:, 2].copy() if self.m.geom_type[w] == mujoco.mjtGeom.mjGEOM_CYLINDER \
+            else None
+        side = None if self.part.sidesite is None else self.d.site_xpos[self.part.sidesite].copy()
+        return self.d.geom_xpos[w].copy(), float(self.m.geom_size[w, 0]), axis, side, "wrap"
+
     def _ends(self):
         p = self.d.site_xpos[self.part.origin_site].copy()
         q = self.d.site_xpos[self.part.insertion_site].copy()
-        if self.part.wrap is not None:
-            c = self.d.geom_xpos[self.part.wrap].copy()
-        else:
-            c = self.d.xanchor[self.m.joint("shoulder_elv").id].copy()
+        surface = self._contact_surface()
+        c = surface[0] if surface is not None else self.d.xanchor[self.m.joint("shoulder_elv").id].copy()
         return p, q, c
 
-    def _radius(self) -> float:
-        return float(self.m.geom_size[self.part.wrap, 0]) if self.part.wrap is not None else 0.0
-
-    def _axis(self) -> np.ndarray | None:
-        """The wrap cylinder's axis (its geom z axis) at the current pose; None for a sphere or no wrap."""
-        w = self.part.wrap
-        if w is None or self.m.geom_type[w] != mujoco.mjtGeom.mjGEOM_CYLINDER:
-            return None
-        return self.d.geom_xmat[w].reshape(3, 3)[:, 2].copy()
+    def _fibre(self, p, q, n: int) -> tuple[np.ndarray, float]:
+        """A fibre's initial shape from p to q: over the contact surface as MuJoCo wraps (`wrap_geodesic`), or
+        straight."""
+        surface = self._contact_surface()
+        if surface is None:
+            return p + np.linspace(0, 1, n)[:, None] * (q - p), float(np.linalg.norm(q - p))
+        c, radius, axis, side, _ = surface
+        return wrap_geodesic(p, q, c, radius, n, axis, side)
 
     def draped(self) -> np.ndarray:
-        """(ns nt, 3) the sheet's initial shape at the current pose: each fibre MuJoCo's wrapped path (`wrap_geodesic`,
-        on the side of the wrap's side site) from its origin-line point to its insertion-line point."""
-        p, q, c = self._ends()
-        side = None if self.part.sidesite is None else self.d.site_xpos[self.part.sidesite]
+        """(ns nt, 3) the sheet's initial shape at the current pose: each fibre wrapped as MuJoCo wraps a tendon
+        over the contact surface (`_fibre`), from its origin-line point to its insertion-line point."""
+        p, q, _ = self._ends()
         out = np.empty((self.ns, self.nt, 3))
         for j, t in enumerate(np.linspace(-0.5, 0.5, self.nt)):
             pj = p + t * self.width * self._frame("origin")[1] @ self.across["origin"]
             qj = q + t * self.width * self._frame("insertion")[1] @ self.across["insertion"]
-            if self.part.wrap is None:
-                out[:, j] = pj + np.linspace(0, 1, self.ns)[:, None] * (qj - pj)
-            else:
-                out[:, j] = wrap_geodesic(pj, qj, c, self._radius(), self.ns, self._axis(), side)[0]
+            out[:, j] = self._fibre(pj, qj, self.ns)[0]
         return out.reshape(-1, 3)
 
     def central_length(self) -> float:
-        """The length of the central fibre's initial shape at the current pose (m): MuJoCo's free length, if the
-        geometry is MuJoCo's."""
-        p, q, c = self._ends()
-        if self.part.wrap is None:
-            return float(np.linalg.norm(q - p))
-        side = None if self.part.sidesite is None else self.d.site_xpos[self.part.sidesite]
-        return wrap_geodesic(p, q, c, self._radius(), 2, self._axis(), side)[1]
+        """The length of the central fibre's initial shape at the current pose (m): with surface="wrap", MuJoCo's
+        free length."""
+        p, q, _ = self._ends()
+        return self._fibre(p, q, 2)[1]
 
     def boundary(self) -> dict:
         """The origin and insertion nodes at the current pose: the reference ones carried by their bones."""
@@ -308,7 +325,9 @@ class FootprintSheet:
     def _place(self, pose_deg):
         self._set(pose_deg)
         b = self.boundary()
-        self.problem.place(b["origin"], b["insertion"], self._ends()[2], self._radius(), self._axis())
+        surface = self._contact_surface()
+        centre, radius, axis = surface[:3] if surface is not None else (np.zeros(3), 0.0, None)
+        self.problem.place(b["origin"], b["insertion"], centre, radius, axis)
 
     def reduce(self, x: np.ndarray, activation: float) -> dict:
         pb = self.problem
@@ -319,8 +338,9 @@ class FootprintSheet:
         jacp = np.zeros((3, self.m.nv))
         loads = [("origin", i, -g[i]) for i in pb.nodes_of("origin")]
         loads += [("insertion", i, -g[i]) for i in pb.nodes_of("insertion")]
-        if self.part.wrap is not None:  # the free nodes push the wrap's body where they touch it
-            loads += [("wrap", i, gc[i]) for i in pb.free if np.any(gc[i] != 0.0)]
+        surface = self._contact_surface()
+        if surface is not None:  # the free nodes push the surface's body where they touch it
+            loads += [(surface[4], i, gc[i]) for i in pb.free if np.any(gc[i] != 0.0)]
         for which, i, f in loads:
             mujoco.mj_jac(self.m, self.d, jacp, None, x[i], self.bodies[which])
             q_nv += jacp.T @ f
@@ -369,11 +389,13 @@ class _Problem(MuscleProblem):
         return y
 
 
-def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None = None, progress=None) -> dict:
+def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None = None, progress=None,
+            surface: str = "wrap") -> dict:
     """FEM vs MJCF moment arms of `tendon` at `poses_deg` (P, 3): arrays (P, 3) in m (NaN where the sheet found no
     equilibrium: `converged`), the tensions and contact forces (N), the central fibre's stretch (its initial shape's
-    length over the reference's). progress: called after each pose."""
-    sheet = FootprintSheet(tendon, resolution, width_m)
+    length over the reference's). progress: called after each pose. surface: the sheet's contact surface
+    (`SURFACES`)."""
+    sheet = FootprintSheet(tendon, resolution, width_m, surface=surface)
     poses = np.atleast_2d(np.asarray(poses_deg, float))
     out = {"fem_m": np.full((len(poses), 3), np.nan), "mjcf_m": np.zeros((len(poses), 3)),
            "tension_N": np.full(len(poses), np.nan), "contact_N": np.full(len(poses), np.nan),
@@ -391,4 +413,5 @@ def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None =
             out["contact_N"][k], out["converged"][k] = s["contact_N"], True
         if progress is not None:
             progress()
-    return {"tendon": tendon, "poses_deg": poses, "width_m": sheet.width, "resolution": (sheet.ns, sheet.nt), **out}
+    return {"tendon": tendon, "poses_deg": poses, "width_m": sheet.width, "resolution": (sheet.ns, sheet.nt),
+            "surface": surface, **out}

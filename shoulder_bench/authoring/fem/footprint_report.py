@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from shoulder_bench.authoring.fem.footprint import TENDONS, compare
+from shoulder_bench.authoring.fem.footprint import TENDONS, FootprintSheet, compare
 from shoulder_bench.full_arm import COORDINATE_LABELS, COORDINATES
 
 # Planes x elevations x rotations: the tasks' pose space (full_arm.POSE_RANGE_DEG) at its ends and middle.
@@ -48,7 +48,7 @@ def summary(result: dict) -> dict:
     return out
 
 
-def figure(results: list[dict], path: Path) -> None:
+def figure(results: list[dict], path: Path, surface: str = "wrap") -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -72,21 +72,30 @@ def figure(results: list[dict], path: Path) -> None:
     axes[0, 0].legend(fontsize=7, title="FEM (solid), MJCF (dashed)", title_fontsize=7)
     for ax in axes[-1]:
         ax.set_xlabel(f"elevation (°), plane {FIGURE_PLANE_DEG:.0f}°")
-    fig.suptitle("Footprint sheets (solved line of action) vs the MJCF tendon paths", fontsize=10)
+    on = "the MJCF wrap objects" if surface == "wrap" else "the humeral head sphere"
+    fig.suptitle(f"Footprint sheets (solved line of action, contact with {on}) vs the MJCF tendon paths", fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def run(tendons=TENDONS, resolution: str = "full", out: Path | None = None) -> list[dict]:
-    """Solve every tendon at every report pose; print the table; with `out`, write footprint.json and
-    footprint_moment_arms.png there."""
+def run(tendons=TENDONS, resolution: str = "full", out: Path | None = None, surface: str = "wrap") -> list[dict]:
+    """Solve every tendon at every report pose with contact on `surface` (`footprint.SURFACES`; a tendon whose
+    sheet cannot touch it is skipped, saying why); print the table; with `out`, write footprint[_head].json and
+    footprint[_head]_moment_arms.png there."""
     poses = report_poses()
+    usable = []
+    for t in tendons:
+        try:
+            FootprintSheet(t, (3, 2), surface=surface)
+            usable.append(t)
+        except ValueError as exc:
+            print(f"skipped: {exc}")
     results = []
-    with tqdm(total=len(tendons) * len(poses), desc="footprint sheets", unit="pose") as bar:
-        for t in tendons:
-            results.append(compare(t, poses, resolution, progress=bar.update))
+    with tqdm(total=len(usable) * len(poses), desc="footprint sheets", unit="pose") as bar:
+        for t in usable:
+            results.append(compare(t, poses, resolution, progress=bar.update, surface=surface))
     rows = [summary(r) for r in results]
     print("|FEM - MJCF| moment arm, RMS / largest (the MJCF arm's RMS), mm")
     print("tendon  width  stretch    poses         plane               elevation           rotation         contact")
@@ -104,15 +113,16 @@ def run(tendons=TENDONS, resolution: str = "full", out: Path | None = None) -> l
     if out is not None:
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
-        data = {"resolution": resolution, "summary": rows,
+        data = {"resolution": resolution, "surface": surface, "summary": rows,
                 "poses": [{"tendon": r["tendon"], "pose_deg": p.tolist(), "converged": bool(ok),
                            "stretch": float(lam), "fem_mm": (f * 1e3).tolist() if ok else None,
                            "mjcf_mm": (j * 1e3).tolist()}
                           for r in results for p, f, j, ok, lam in zip(r["poses_deg"], r["fem_m"], r["mjcf_m"],
                                                                         r["converged"], r["stretch"])]}
-        (out / "footprint.json").write_text(json.dumps(data, indent=1))
-        figure(results, out / "footprint_moment_arms.png")
-        print(f"wrote {out / 'footprint.json'} and {out / 'footprint_moment_arms.png'}")
+        stem = "footprint" if surface == "wrap" else f"footprint_{surface}"
+        (out / f"{stem}.json").write_text(json.dumps(data, indent=1))
+        figure(results, out / f"{stem}_moment_arms.png", surface)
+        print(f"wrote {out / f'{stem}.json'} and {out / f'{stem}_moment_arms.png'}")
     return results
 
 
