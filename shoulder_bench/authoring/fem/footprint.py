@@ -14,8 +14,9 @@ tendon leaves the bone, and no source gives the belly's width there (a stated as
 of the origin line to the matching point of the insertion line. Its initial shape at a pose is MuJoCo's wrapped path
 (`wrap_geodesic`: straight, or tangent-arc-tangent over the sphere, a helix on the cylinder, on the side of the
 wrap's side site); then the solve decides where the sheet lies: the contact with the surface is the solver's penalty
-(`solver.MuscleProblem`), not a prescribed path. The wrap objects are the MoBL parent's (as the MJCF has them:
-MuJoCo wraps spheres and cylinders only), standing in for the humeral head.
+(`solver.MuscleProblem`), not a prescribed path. The contact surface (`surface`) is the MJCF's wrap object (the MoBL
+parent's, as the MJCF has them: MuJoCo wraps spheres and cylinders only), or the humeral head (HUMERAL_HEAD, a
+sphere fitted to the parent's humerus surface; for ssp and isp: the ssc and tmi insertion sites lie inside it).
 
 Reference (stress-free, fibres at optimal length): the sheet at REFERENCE_POSE_DEG. The sheet is all fibre (no
 tendon in series): these solves are about the line of action, which barely depends on how the force is made.
@@ -286,8 +287,8 @@ class FootprintSheet:
     # -- solve and reduce ---------------------------------------------------------------------------------------------
     def solve(self, pose_deg, activation: float = 1.0) -> dict:
         """Equilibrium at `pose_deg` (plane, elevation, rotation) and `activation`; returns the nodes, the tension
-        (N), the generalised force about the three coordinates (N m), the FEM moment arms (m) and the contact force
-        on the wrap object (N).
+        (N), the generalised force about the three coordinates (N m), the FEM moment arms (m), the contact force on
+        the contact surface (N) and the central fibre's stretch.
 
         Continuation: the activation is ramped to `activation` at the reference pose; then the pose moves from there
         in steps of at most POSE_STEP_DEG per coordinate (halved where Newton fails), each predicted by the change of
@@ -330,6 +331,7 @@ class FootprintSheet:
         self.problem.place(b["origin"], b["insertion"], centre, radius, axis)
 
     def reduce(self, x: np.ndarray, activation: float) -> dict:
+        """The solved sheet `x`'s forces on the bones, as the module docstring's "Reduction" says."""
         pb = self.problem
         _, g, _ = membrane_tangent(pb.mem, pb.kernel, x, activation)
         g = (g + pb.reg_matrix @ (x - pb.X).ravel()).reshape(-1, 3)
