@@ -112,8 +112,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "models/muscles_full): held-out poses re-solved, MuJoCo vs FEM over the 3-DOF pose grid")
     v.add_argument("--coarse", action="store_true", help="with --full: re-solve on coarse sheets (coarse tables)")
     v.set_defaults(func=_verify)
-    f = sub.add_parser("footprint", help="the rotator cuff's footprint sheets (ssp, isp, ssc, tmi) solved in 3-D with "
-                       "contact: their moment arms beside the MJCF tendons' over 72 poses (docs/fem.md)")
+    f = sub.add_parser("footprint", help="footprint sheets (ssp, isp, ssc, tmi, tma, pec1) solved in 3-D with contact: "
+                       "their moment arms beside the MJCF tendons' over 72 poses (docs/fem.md)")
     f.add_argument("--tendon", action="append", help="only this tendon (repeatable; default all)")
     f.add_argument("--coarse", action="store_true", help="coarse sheets (15 x 5 nodes instead of 31 x 9)")
     f.add_argument("--out", type=Path, default=None, help="folder for footprint.json and footprint_moment_arms.png")

@@ -2,14 +2,17 @@
 part as a fibre membrane between two attachment lines, lying on the MJCF's wrap surface by contact, solved in 3-D at
 any pose of the 3-DOF model, with the line of action and the torque about each coordinate as outputs of the solve.
 
-Which tendons: the rotator cuff, whose free part (the MJCF path from the last site on the scapula to the first on the
-humerus) is straight or wraps one object: ssp (a sphere), isp (a cylinder), ssc (a sphere), tmi (straight). The
-other tendons wrap two or more objects between their bones; they need contact with several surfaces (not done).
+Which tendons: those whose free part (the MJCF path from the last humerus site to the next site, on the proximal bone)
+is straight or wraps one object, and whose footprint has a source (FOOTPRINT_M): the rotator cuff (ssp over a sphere,
+isp over a cylinder, ssc over a sphere, tmi straight), teres major (a sphere) and the clavicular pectoralis major
+(straight). pec2, pec3 and cor are draped as well but have no footprint of their own (`width_m` runs them); dmi and
+dpo wrap with their side site inside the object (MuJoCo's inside wrapping, not done); dan and ld1-3 run on over a
+second proximal bone (their path's length beyond the first proximal site changes with the girdle).
 
-Geometry. The origin line is centred on the last scapular site P, the insertion line on the first humerus site Q,
+Geometry. The origin line is centred on the proximal site P, the insertion line on the last humerus site Q,
 both along n = (P - c) x (Q - c) at the reference pose (c: the wrap object's centre, or the joint centre for a
 straight tendon), each fixed in its bone's frame. Insertion line length: the tendon's insertional footprint across
-its fibres, Curtis et al. 2006 (FOOTPRINT_M). The origin line has the same length: the free part begins where the
+its fibres (FOOTPRINT_M, with its sources). The origin line has the same length: the free part begins where the
 tendon leaves the bone, and no source gives the belly's width there (a stated assumption). A fibre runs from a point
 of the origin line to the matching point of the insertion line. Its initial shape at a pose is MuJoCo's wrapped path
 (`wrap_geodesic`: straight, or tangent-arc-tangent over the sphere, a helix on the cylinder, on the side of the
@@ -21,31 +24,33 @@ sphere fitted to the parent's humerus surface; for ssp and isp: the ssc and tmi 
 Reference (stress-free, fibres at optimal length): the sheet at REFERENCE_POSE_DEG. The sheet is all fibre (no
 tendon in series): these solves are about the line of action, which barely depends on how the force is made.
 
-Reduction. At equilibrium the sheet pulls on the scapula at its origin nodes, on the humerus at its insertion nodes
-and pushes the wrap object's body at the nodes in contact. Each force acts at its node; its generalised force is
-J_body(x)^T f (MuJoCo's `mj_jac` of the body at that point), and the coordinates' share is S^T (S the coupling
+Reduction. At equilibrium the sheet pulls on the proximal bone at its origin nodes, on the humerus at its insertion
+nodes and pushes the contact surface's body at the nodes in contact. Each force acts at its node; its generalised
+force is J_body(x)^T f (MuJoCo's `mj_jac` of the body at that point), and the coordinates' share is S^T (S the coupling
 slopes, `full_arm.Pose.slopes`), as for the MuJoCo tendon. Divided by the tension (the magnitude of the origin's
 resultant, the pull of a straight first segment), it is the FEM's moment arm about each coordinate, to be set
 beside the MJCF tendon's r = -ten_J S (`compare`).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import mujoco
 import numpy as np
 
 from shoulder_bench import full_arm
+from shoulder_bench.authoring.fem.footprint_paths import free_part, wrap_geodesic
 from shoulder_bench.authoring.fem.material import Blemker, Material
 from shoulder_bench.authoring.fem.membrane import membrane_tangent
 from shoulder_bench.authoring.fem.shells import grid_triangles
 from shoulder_bench.authoring.fem.solver import MuscleProblem, NoConvergence, SolverSettings
 
-# Maximum insertional length of each tendon's footprint on the humerus (across its fibres), m: Curtis AS, Burbank KM,
-# Tierney JJ, Scheller AD, Curran AR. The insertional footprint of the rotator cuff: an anatomic study. Arthroscopy
-# 2006;22(6):609.e1 (20 cadavers; length x width: subscapularis 40 x 20, infraspinatus 29 x 19, supraspinatus
-# 23 x 16, teres minor 29 x 21 mm).
-FOOTPRINT_M = {"ssp": 0.023, "isp": 0.029, "ssc": 0.040, "tmi": 0.029}
+# Length of each tendon's insertional footprint on the humerus across its fibres, m. Rotator cuff: the maximum
+# insertional lengths of Curtis AS, Burbank KM, Tierney JJ, Scheller AD, Curran AR. The insertional footprint of the
+# rotator cuff: an anatomic study. Arthroscopy 2006;22(6):609.e1 (20 cadavers; length x width: subscapularis
+# 40 x 20, infraspinatus 29 x 19, supraspinatus 23 x 16, teres minor 29 x 21 mm). Teres major: Dancker M, Lambert S,
+# Brenner E. Teres major muscle - insertion footprint. J Anat 2017;230(5):631 (28 limbs: 49.6 x 7.4 mm, along the
+# crest of the lesser tubercle). Pectoralis major, clavicular head: 56.6 mm of humeral footprint (8 cadavers;
+# PMC9502243; its sternal head's 42.1 mm is not split here between MoBL's PECM2 and PECM3).
+FOOTPRINT_M = {"ssp": 0.023, "isp": 0.029, "ssc": 0.040, "tmi": 0.029, "tma": 0.0496, "pec1": 0.0566}
 TENDONS = tuple(FOOTPRINT_M)
 # The humeral head of the MoBL-ARMS parent's humerus surface (humerus.vtp of osim-rl 3.0.11's MoBL_ARMS_J.osim) as a
 # sphere in the humerus frame: `python models/reference/scripts/humeral_head.py <humerus.vtp>` (62 vertices, RMS
@@ -57,115 +62,6 @@ RESOLUTION = {"full": (31, 9), "coarse": (15, 5)}  # nodes along the fibres, acr
 ACTIVATION_STEPS = (0.25, 0.5, 0.75, 1.0)  # fractions of the activation, ramped at the reference pose
 POSE_STEP_DEG = 10.0  # largest continuation step in any coordinate
 SETTINGS = SolverSettings(max_step_activation=0.25, max_iter=60)
-
-
-@dataclass(frozen=True)
-class FreePart:
-    """Where a tendon's free part runs in the model: proximal site P, humerus site Q, optional wrap object."""
-
-    tendon: str
-    origin_site: int
-    insertion_site: int
-    wrap: int | None  # geom id of the wrap sphere or cylinder, or None (straight)
-    sidesite: int | None  # the wrap's side site, if any
-
-
-def path_items(m: mujoco.MjModel, tendon: str) -> list[tuple[int, int]]:
-    """The tendon's path as (mjtWrap type, object id) in model order."""
-    t = m.tendon(tendon).id
-    span = range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t])
-    return [(int(m.wrap_type[w]), int(m.wrap_objid[w])) for w in span]
-
-
-def free_part(m: mujoco.MjModel, tendon: str) -> FreePart:
-    """The tendon's free part: the first humerus site of its path, the next site (on another body) and the sphere or
-    cylinder between them, if any. Refused for a free part wrapping more than one object."""
-    hum = m.body("humerus").id
-    items = path_items(m, tendon)
-    site = int(mujoco.mjtWrap.mjWRAP_SITE)
-    if items[0][0] != site or m.site_bodyid[items[0][1]] != hum:
-        raise ValueError(f"{tendon}: its path does not start on the humerus")
-    k = 1
-    while items[k][0] != site:
-        k += 1
-    if m.site_bodyid[items[k][1]] == hum:
-        raise ValueError(f"{tendon}: its second site is on the humerus too (a path this module does not drape)")
-    if k > 2:
-        raise ValueError(f"{tendon}: its free part wraps {k - 1} objects, not one (no contact for that yet)")
-    if k == 1:
-        return FreePart(tendon, items[k][1], items[0][1], None, None)
-    w = int(m.tendon_adr[m.tendon(tendon).id]) + 1
-    side = int(m.wrap_prm[w])
-    return FreePart(tendon, items[k][1], items[0][1], items[1][1], side if side >= 0 else None)
-
-
-def _segments_cross(a0, a1, b0, b1) -> bool:
-    """Whether the 2-D segments a0-a1 and b0-b1 intersect."""
-    da, db = a1 - a0, b1 - b0
-    det = da[0] * db[1] - da[1] * db[0]
-    if abs(det) < 1e-15:
-        return False
-    w = b0 - a0
-    u, v = (w[0] * db[1] - w[1] * db[0]) / det, (w[0] * da[1] - w[1] * da[0]) / det
-    return bool(0.0 <= u <= 1.0 and 0.0 <= v <= 1.0)
-
-
-def wrap_geodesic(p, q, centre, radius: float, n: int, axis=None, side=None) -> tuple[np.ndarray, float]:
-    """n points equally spaced along the shortest path from p to q around a sphere (axis None) or an infinite
-    cylinder (unit `axis`) of `radius` about `centre`, on the side of the point `side` if given, as MuJoCo wraps:
-    in the plane through the centre, p and q (sphere) or in the projection along the axis with the axial
-    coordinate linear in the projected arc length (cylinder: a helix); straight where the segment clears the object
-    (and, with a side point, passes on its side) or an end lies inside it. Returns (points (n, 3), length)."""
-    p, q, c = (np.asarray(v, float) for v in (p, q, centre))
-    a = np.zeros(3) if axis is None else np.asarray(axis, float) / np.linalg.norm(axis)
-    pp, qq = p - c - ((p - c) @ a) * a, q - c - ((q - c) @ a) * a
-    u = pp / np.linalg.norm(pp)
-    v = qq - (qq @ u) * u
-    v = v / np.linalg.norm(v) if np.linalg.norm(v) > 1e-12 else np.cross(a, u)
-    p2, q2 = np.array([pp @ u, pp @ v]), np.array([qq @ u, qq @ v])
-    zp, zq = (p - c) @ a, (q - c) @ a
-    s = np.linspace(0.0, 1.0, n)
-    seg = q2 - p2
-    h = np.clip(-(p2 @ seg) / (seg @ seg), 0.0, 1.0)
-    closest = p2 + h * seg
-    s2 = None if side is None else np.array([(side - c) @ u, (side - c) @ v])
-    clears = np.linalg.norm(closest) >= radius
-    rp, rq = np.linalg.norm(p2), np.linalg.norm(q2)
-    inside = min(rp, rq) < radius  # an end inside the object: MuJoCo does not wrap
-    if inside or (clears and (s2 is None or closest @ s2 >= 0.0)):
-        return p + s[:, None] * (q - p), float(np.linalg.norm(q - p))
-    ap, aq = np.arccos(min(1.0, radius / rp)), np.arccos(min(1.0, radius / rq))
-    tq = np.arctan2(q2[1], q2[0])
-    side2 = None if s2 is None else radius * s2 / np.linalg.norm(s2)
-    candidates = []
-    for sign in (1.0, -1.0):  # leave p counter-clockwise, clockwise
-        start, end = sign * ap, tq - sign * aq
-        sweep = np.mod(sign * (end - start), 2 * np.pi)
-        t1, t2 = radius * np.array([np.cos(start), np.sin(start)]), radius * np.array([np.cos(end), np.sin(end)])
-        # MuJoCo's choice: the tangent pair whose chord midpoint points to the side site, else the closer pair;
-        # a pair whose two straight pieces cross each other is out
-        good = (t1 + t2) @ side2 / max(np.linalg.norm(t1 + t2), 1e-15) if side2 is not None else -np.sum((t1 - t2) ** 2)
-        crossed = _segments_cross(p2, t1, q2, t2)
-        candidates.append((-1e4 if crossed else good, crossed, sign, start, sweep))
-    _, crossed, sign, start, sweep = max(candidates, key=lambda x: x[0])
-    if crossed:  # MuJoCo does not wrap then
-        return p + s[:, None] * (q - p), float(np.linalg.norm(q - p))
-    l1, l3 = np.sqrt(max(rp**2 - radius**2, 0.0)), np.sqrt(max(rq**2 - radius**2, 0.0))
-    l2 = radius * sweep
-    planar = l1 + l2 + l3
-    t1 = radius * np.array([np.cos(start), np.sin(start)])
-    t2 = radius * np.array([np.cos(start + sign * sweep), np.sin(start + sign * sweep)])
-    d = s * planar
-    out2 = np.empty((n, 2))
-    first, arc = d <= l1, (d > l1) & (d < l1 + l2)
-    last = ~(first | arc)
-    out2[first] = p2 + (d[first] / max(l1, 1e-15))[:, None] * (t1 - p2)
-    ang = start + sign * (d[arc] - l1) / radius
-    out2[arc] = radius * (1.0 + 1e-9) * np.stack([np.cos(ang), np.sin(ang)], 1)
-    out2[last] = t2 + ((d[last] - l1 - l2) / max(l3, 1e-15))[:, None] * (q2 - t2)
-    z = zp + s * (zq - zp)
-    pts = c + out2[:, :1] * u + out2[:, 1:] * v + z[:, None] * a
-    return pts, float(np.hypot(planar, zq - zp))
 
 
 class FootprintSheet:
@@ -356,15 +252,6 @@ class FootprintSheet:
     def mjcf_moment_arm(self, pose_deg) -> np.ndarray:
         """(3,) the MJCF tendon's moment arms about plane, elevation, rotation at `pose_deg` (m)."""
         return self.pose.tendon_geometry(pose_deg, (self.part.tendon,))[1][0, 0]
-
-    def free_length_mjcf(self, pose_deg) -> float:
-        """The MJCF tendon's length less its fixed part (the sites beyond P on the proximal bone), m."""
-        length = float(self.pose.tendon_geometry(pose_deg, (self.part.tendon,))[0][0, 0])
-        sites = [i for kind, i in path_items(self.m, self.part.tendon) if kind == int(mujoco.mjtWrap.mjWRAP_SITE)]
-        rest = sites[sites.index(self.part.origin_site):]
-        self._set(pose_deg)
-        fixed = sum(np.linalg.norm(self.d.site_xpos[a] - self.d.site_xpos[b]) for a, b in zip(rest[:-1], rest[1:]))
-        return length - float(fixed)
 
 
 def _f0(tendon: str) -> float:

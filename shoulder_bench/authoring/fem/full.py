@@ -17,7 +17,7 @@ coordinates' ranges) with LENGTH_MARGIN on both sides; outside it the law takes 
 
 What this is not: the issue's sheets over the real attachment footprints, with contact on the humeral head and a
 torque vector that is an output of the solve. Here the line of action is the MJCF tendon's (docs/fem.md); the
-footprint sheets of `footprint` solve it for the rotator cuff, behind no table yet.
+footprint sheets of `footprint` solve it for six tendons, behind no table yet.
 
 Caching and resuming: each tendon's table is written (atomically) as soon as it is solved, with its input hash
 (sheet mesh hash, spec, material, solver, length grid, CODE_VERSION); a rerun solves only the tendons whose table is
