@@ -84,6 +84,14 @@ def test_paths_it_cannot_drape_and_tendons_without_a_footprint_are_refused(pose)
         fem_main(["footprint", "--tendon", "dmi"])
 
 
+def test_the_report_refuses_a_file_as_its_folder(tmp_path):
+    afile = tmp_path / "x.json"
+    afile.write_text("{}")
+    with pytest.raises(SystemExit, match="is a file, not a folder"):
+        fem_main(["footprint", "--out", str(afile)])
+    assert afile.read_text() == "{}"
+
+
 def test_the_report_summarises_converged_poses_and_the_taut_ones_apart():
     from shoulder_bench.authoring.fem.footprint_report import summary
 

@@ -85,6 +85,8 @@ def _footprint(args) -> int:
     if unknown:
         raise SystemExit(f"shoulder-bench fem footprint: error: no footprint sheet for {', '.join(unknown)}; "
                          f"choose from {', '.join(TENDONS)}")
+    if args.out is not None and args.out.exists() and not args.out.is_dir():
+        raise SystemExit(f"shoulder-bench fem footprint: error: --out {args.out} is a file, not a folder")
     run(tuple(args.tendon) if args.tendon else TENDONS, "coarse" if args.coarse else "full", args.out, args.surface)
     return 0
 

@@ -10,6 +10,7 @@ from tqdm import tqdm
 
 from shoulder_bench.authoring.fem.footprint import TENDONS, FootprintSheet, compare
 from shoulder_bench.full_arm import COORDINATE_LABELS, COORDINATES
+from shoulder_bench.muscle import replacing
 
 # Planes x elevations x rotations: the tasks' pose space (full_arm.POSE_RANGE_DEG) at its ends and middle.
 PLANES_DEG = (0.0, 45.0, 90.0)
@@ -120,8 +121,10 @@ def run(tendons=TENDONS, resolution: str = "full", out: Path | None = None, surf
                           for r in results for p, f, j, ok, lam in zip(r["poses_deg"], r["fem_m"], r["mjcf_m"],
                                                                         r["converged"], r["stretch"])]}
         stem = "footprint" if surface == "wrap" else f"footprint_{surface}"
-        (out / f"{stem}.json").write_text(json.dumps(data, indent=1))
-        figure(results, out / f"{stem}_moment_arms.png", surface)
+        with replacing(out / f"{stem}.json") as tmp:  # written whole or not at all
+            tmp.write_text(json.dumps(data, indent=1))
+        with replacing(out / f"{stem}_moment_arms.png") as tmp:
+            figure(results, tmp, surface)
         print(f"wrote {out / f'{stem}.json'} and {out / f'{stem}_moment_arms.png'}")
     return results
 
