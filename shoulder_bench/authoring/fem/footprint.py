@@ -39,7 +39,7 @@ import numpy as np
 from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem.footprint_paths import free_part, wrap_geodesic
 from shoulder_bench.authoring.fem.material import Blemker, Material
-from shoulder_bench.authoring.fem.membrane import membrane_tangent
+from shoulder_bench.authoring.fem.membrane import membrane_forces
 from shoulder_bench.authoring.fem.shells import grid_triangles
 from shoulder_bench.authoring.fem.solver import MuscleProblem, NoConvergence, SolverSettings
 
@@ -85,10 +85,12 @@ class FootprintSheet:
                        "head": int(self.m.body("humerus").id)}
         self._set(REFERENCE_POSE_DEG)
         p, q, c = self._ends()
-        inside = [k for k, x in (("origin", p), ("insertion", q)) if np.linalg.norm(x - c) < HUMERAL_HEAD["radius_m"]]
-        if surface == "head" and inside:
-            raise ValueError(f"{tendon}: its {inside[0]} site lies inside the humeral head sphere; no contact with the "
-                             "head for it")
+        if surface == "head":
+            radius = HUMERAL_HEAD["radius_m"]
+            inside = [k for k, x in (("origin", p), ("insertion", q)) if np.linalg.norm(x - c) < radius]
+            if inside:
+                raise ValueError(f"{tendon}: its {inside[0]} site lies inside the humeral head sphere; no contact with "
+                                 "the head for it")
         n = np.cross(p - c, q - c)
         self.across = {k: self._to_body(k, n / np.linalg.norm(n), vector=True) for k in ("origin", "insertion")}
         X = self.draped()
@@ -229,8 +231,7 @@ class FootprintSheet:
     def reduce(self, x: np.ndarray, activation: float) -> dict:
         """The solved sheet `x`'s forces on the bones, as the module docstring's "Reduction" says."""
         pb = self.problem
-        _, g, _ = membrane_tangent(pb.mem, pb.kernel, x, activation)
-        g = (g + pb.reg_matrix @ (x - pb.X).ravel()).reshape(-1, 3)
+        g = membrane_forces(pb.mem, pb.kernel, x, activation) + (pb.reg_matrix @ (x - pb.X).ravel()).reshape(-1, 3)
         gc = pb._contact(x)[1].reshape(-1, 3)
         q_nv = np.zeros(self.m.nv)
         jacp = np.zeros((3, self.m.nv))
@@ -279,12 +280,13 @@ class _Problem(MuscleProblem):
 
 
 def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None = None, progress=None,
-            surface: str = "wrap") -> dict:
+            surface: str = "wrap", pose: full_arm.Pose | None = None) -> dict:
     """FEM vs MJCF moment arms of `tendon` at `poses_deg` (P, 3): arrays (P, 3) in m (NaN where the sheet found no
     equilibrium: `converged`), the tensions and contact forces (N), the central fibre's stretch (its initial shape's
     length over the reference's). progress: called after each pose. surface: the sheet's contact surface
-    (`SURFACES`)."""
-    sheet = FootprintSheet(tendon, resolution, width_m, surface=surface)
+    (`SURFACES`). pose: the model posed (default: the task model, compiled anew). A ValueError if the tendon has no
+    sheet (`FootprintSheet`)."""
+    sheet = FootprintSheet(tendon, resolution, width_m, pose=pose, surface=surface)
     poses = np.atleast_2d(np.asarray(poses_deg, float))
     out = {"fem_m": np.full((len(poses), 3), np.nan), "mjcf_m": np.zeros((len(poses), 3)),
            "tension_N": np.full(len(poses), np.nan), "contact_N": np.full(len(poses), np.nan),

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from shoulder_bench.authoring.fem.footprint import TENDONS, FootprintSheet, compare
-from shoulder_bench.full_arm import COORDINATE_LABELS, COORDINATES
+from shoulder_bench.authoring.fem.footprint import TENDONS, compare
+from shoulder_bench.full_arm import COORDINATE_LABELS, COORDINATES, Pose
 from shoulder_bench.muscle import replacing
 
 # Planes x elevations x rotations: the tasks' pose space (full_arm.POSE_RANGE_DEG) at its ends and middle.
@@ -85,18 +85,15 @@ def run(tendons=TENDONS, resolution: str = "full", out: Path | None = None, surf
     """Solve every tendon at every report pose with contact on `surface` (`footprint.SURFACES`; a tendon whose
     sheet cannot touch it is skipped, saying why); print the table; with `out`, write footprint[_head].json and
     footprint[_head]_moment_arms.png there."""
-    poses = report_poses()
-    usable = []
-    for t in tendons:
-        try:
-            FootprintSheet(t, (3, 2), surface=surface)
-            usable.append(t)
-        except ValueError as exc:
-            print(f"skipped: {exc}")
+    poses, pose = report_poses(), Pose()  # one compiled model for every tendon
     results = []
-    with tqdm(total=len(usable) * len(poses), desc="footprint sheets", unit="pose") as bar:
-        for t in usable:
-            results.append(compare(t, poses, resolution, progress=bar.update, surface=surface))
+    with tqdm(total=len(tendons) * len(poses), desc="footprint sheets", unit="pose") as bar:
+        for t in tendons:
+            try:
+                results.append(compare(t, poses, resolution, progress=bar.update, surface=surface, pose=pose))
+            except ValueError as exc:  # raised before any solve
+                bar.update(len(poses))
+                tqdm.write(f"skipped: {exc}")
     rows = [summary(r) for r in results]
     print("|FEM - MJCF| moment arm, RMS / largest (the MJCF arm's RMS), mm")
     print("tendon  width  stretch    poses         plane               elevation           rotation         contact")
