@@ -1,6 +1,8 @@
 """Footprint sheets of the full shoulder (issue 12 §2, first step): the sheet's geometry follows the model's bones, its
 reduction gives back the MJCF moment arms when the sheet is a line, and with the real footprint the solved line of
 action is its own (shoulder_bench/authoring/fem/footprint.py, docs/fem.md "Footprint sheets")."""
+import json
+
 import numpy as np
 import pytest
 
@@ -134,3 +136,18 @@ def test_the_head_is_a_sphere_about_the_joint_centre_and_the_cuff_insertions_ins
             F.FootprintSheet(tendon, "coarse", pose=pose, surface="head")
     with pytest.raises(ValueError, match="unknown contact surface"):
         F.FootprintSheet("ssp", pose=pose, surface="glenoid")
+
+
+def test_two_reports_compare_over_the_poses_both_solved(tmp_path):
+    from shoulder_bench.authoring.fem.footprint_report import mesh_difference
+
+    def report(path, rows):
+        path.write_text(json.dumps({"resolution": "x", "poses": [
+            {"tendon": t, "pose_deg": p, "fem_mm": f} for t, p, f in rows]}))
+        return path
+
+    a = report(tmp_path / "a.json", [("ssp", [0, 0, 0], [1.0, 2.0, 3.0]), ("ssp", [0, 10, 0], None),
+                                     ("tma", [0, 0, 0], [0.0, 0.0, 0.0])])
+    b = report(tmp_path / "b.json", [("ssp", [0, 0, 0], [1.5, 2.0, 1.0]), ("ssp", [0, 10, 0], [9.0, 9.0, 9.0])])
+    out = mesh_difference(a, b)  # tma is not in b: left out, not an error
+    assert out == {"ssp": {"poses": 1, "max_diff_mm": [0.5, 0.0, 2.0]}}

@@ -134,6 +134,9 @@ def mesh_difference(a: Path, b: Path) -> dict:
     out = {}
     for tendon in dict.fromkeys(t for t, _ in keyed[0]):
         both = [(keyed[0][k], keyed[1][k]) for k in keyed[0] if k[0] == tendon and keyed[0][k] and keyed[1].get(k)]
+        if not both:
+            print(f"{tendon}: no pose solved in both")
+            continue
         diff = np.abs(np.array([x for x, _ in both]) - np.array([y for _, y in both]))
         out[tendon] = {"poses": len(both), "max_diff_mm": diff.max(0).tolist()}
         print(f"{tendon}: {len(both)} poses solved in both ({runs[0]['resolution']} vs {runs[1]['resolution']}); "
