@@ -154,7 +154,10 @@ def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: st
     coord = np.full((n, int(frames.max()), 3), np.nan) if per_coordinate else None
     crashed = np.zeros(n, dtype=bool)
     active = np.ones(n, dtype=bool)
-    obs = venv.get_observations()["policy"]
+    def observation() -> torch.Tensor:  # the arrays, not rsl-rl's TensorDict: no tensordict import (Lockstep)
+        return torch.as_tensor(venv.observation_array(), dtype=torch.float32)
+
+    obs = observation()
     if record:
         coords = err.shape + (3,) if per_coordinate else err.shape
         trace = {"angle_deg": np.full(coords, np.nan), "target_deg": np.full(coords, np.nan),
@@ -164,8 +167,8 @@ def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: st
     with torch.inference_mode():
         for k in range(int(frames.max())):
             action = policy(obs)
-            obs, _, done, _ = venv.step(action)
-            obs = obs["policy"]
+            _, done, _ = venv.advance(action)
+            obs = observation()
             e = venv.last_error_deg
             now_crashed = active & venv.last_crashed
             err[active & ~now_crashed, k] = e[active & ~now_crashed]
@@ -181,7 +184,7 @@ def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: st
             for i in np.flatnonzero(now_crashed):
                 err[i, k:frames[i]] = protocol.CRASH_ERROR_DEG
             crashed |= now_crashed
-            active &= ~done.numpy().astype(bool)
+            active &= ~done
             if not active.any():
                 break
     venv.close()

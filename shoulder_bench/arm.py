@@ -113,6 +113,9 @@ class LockedPath:
             if drv.name != JOINT:
                 raise ValueError(f"locked variant: {dep.name} is driven by {drv.name}, not {JOINT}")
             self.couplings.append((int(dep.qposadr[0]), int(dep.dofadr[0]), m.eq_data[e, :5].copy()))
+        # the same as arrays, so that `qpos` evaluates every slaved joint at once (the same arithmetic, element-wise)
+        self._slaved = np.array([adr for adr, _, _ in self.couplings], dtype=np.int64)
+        self._coef = np.array([c for _, _, c in self.couplings]).reshape(-1, 5).T  # (5, number of couplings)
 
     def qpos(self, elevation_rad) -> np.ndarray:
         """(B, nq) positions on the coupled path at elevations (B,) rad."""
@@ -120,8 +123,7 @@ class LockedPath:
         x = np.atleast_1d(np.asarray(elevation_rad, dtype=float)) - m.qpos0[self.q]
         out = np.tile(m.qpos0, (len(x), 1))
         out[:, self.q] = x + m.qpos0[self.q]
-        for adr, _, c in self.couplings:
-            out[:, adr] = m.qpos0[adr] + polycoef_value(c, x)
+        out[:, self._slaved] = m.qpos0[self._slaved] + polycoef_value(self._coef, x[:, None])
         return out
 
     def pose(self, elevation_rad: float) -> mujoco.MjData:

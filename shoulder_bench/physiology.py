@@ -42,7 +42,6 @@ import numbers
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import lambertw
 
 TAU_ACT = 0.015  # s, Thelen 2003 / OpenSim Thelen2003Muscle activation_time_constant
 TAU_DEACT = 0.050  # s, deactivation_time_constant
@@ -96,6 +95,8 @@ def activation_after(u, a, t: float) -> np.ndarray:
         x0, kk = (u - a)[up], k[up]
         c = 1.5 / kk
         arg = -c * x0 * np.exp(-c * x0 - t / (kk * TAU_ACT))
+        from scipy.special import lambertw  # imported here: 0.3 s, and only activation_dynamics comes here
+
         out[up] = u[up] + lambertw(np.maximum(arg, -math.exp(-1.0)), 0).real / c
     down = ~up & (a > u)
     if down.any():  # deactivating: x = a - u, x / (k + 1.5 x) decays as e^(-k t / TAU_DEACT)

@@ -5,10 +5,10 @@ callback path (`simulator.BatchSimulator`), so a batched episode equals a single
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import torch
-from rsl_rl.env import VecEnv as _RslVecEnv
-from tensordict import TensorDict
 
 from shoulder_bench import arm as arm_
 from shoulder_bench import physiology, protocol, randomization, statics
@@ -19,6 +19,9 @@ from shoulder_bench.simulator import BatchSimulator
 from shoulder_bench.tasks import TASKS, check_name, sensing
 from shoulder_bench.tasks import options as options_check
 from shoulder_bench.tasks.abduction import VALID_MARGIN_DEG, Abduction
+
+if TYPE_CHECKING:
+    from tensordict import TensorDict
 
 
 def batch_engine() -> str:
@@ -32,11 +35,22 @@ def batch_engine() -> str:
 MAX_ABS = 1e10  # MuJoCo's mjMAXVAL: beyond it the single env's MuJoCo would warn (a crash)
 
 
-class Lockstep(_RslVecEnv):
+class Lockstep:
     """What the batched envs (1-DOF `VecEnv`, 3-DOF `vec_env3.VecEnv3`) share: observations as a TensorDict from
-    `observation_array()`, reset of every copy through `_reset(idx)`, the returns of finished episodes."""
+    `observation_array()`, `step` as `advance` (the frame in arrays) plus that TensorDict, reset of every copy
+    through `_reset(idx)`, the returns of finished episodes.
+
+    The interface is rsl-rl's `VecEnv` (num_envs, num_actions, max_episode_length, episode_length_buf, device, cfg,
+    get_observations, step, reset), which rsl-rl uses by duck typing only; its abstract class is not the base here
+    because importing it imports tensordict, and tensordict torch._dynamo (1.4 s of the `eval` command's start-up,
+    measured with python -X importtime): evaluation steps the copies with `advance` and reads `observation_array`,
+    and only training, which needs the TensorDict, imports it (on the first `step` or `get_observations`)."""
+
+    DONE_DTYPE = torch.long  # of the dones `step` returns
 
     def _observation(self) -> TensorDict:
+        from tensordict import TensorDict
+
         flat = torch.as_tensor(self.observation_array(), dtype=torch.float32, device=self.device)
         return TensorDict({"policy": flat, "critic": flat.clone()}, batch_size=[self.num_envs], device=self.device)
 
@@ -46,6 +60,12 @@ class Lockstep(_RslVecEnv):
     def reset(self) -> TensorDict:
         self._reset(np.arange(self.num_envs))
         return self._observation()
+
+    def step(self, actions) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
+        """rsl-rl's step: `advance`, then the observations as a TensorDict, rewards (float32) and dones."""
+        reward, done, extras = self.advance(actions)
+        return (self._observation(), torch.as_tensor(reward, dtype=torch.float32, device=self.device),
+                torch.as_tensor(done, dtype=self.DONE_DTYPE, device=self.device), extras)
 
     def finished_returns(self) -> list[float]:
         """Returns of the episodes that ended since the last call."""
@@ -211,7 +231,9 @@ class VecEnv(Lockstep):
         return np.concatenate([obs[key] for key in protocol.OBSERVATION_KEYS], axis=1)
 
     # --- stepping ----------------------------------------------------------------------------------------------------
-    def step(self, actions) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
+    def advance(self, actions) -> tuple[np.ndarray, np.ndarray, dict]:
+        """One frame of every copy (auto-reset of the ended ones): rewards (N,) float64, dones (N,) bool, extras
+        (rsl-rl's: time_outs, and the log of ended episodes); the observations after it: `observation_array()`."""
         a = actions.detach().cpu().numpy() if torch.is_tensor(actions) else np.asarray(actions)
         applied, sent = protocol.to_delta(a, self.n, self.discrete, batch=self.num_envs)  # raises before any change
         if self.physiology:  # the activations of each physics step (shoulder_bench.physiology)
@@ -263,9 +285,7 @@ class VecEnv(Lockstep):
                              "/episode/crash_rate": float(crashed[finished].mean())}
             self._finished.extend(self._return[finished].tolist())
             self._reset(finished)
-        obs = self._observation()
-        return (obs, torch.as_tensor(reward, dtype=torch.float32, device=self.device),
-                torch.as_tensor(done, dtype=torch.long, device=self.device), extras)
+        return reward, done, extras
 
     # --- checkpoints --------------------------------------------------------------------------------------------------
     _STATE = ("targets", "target_vel", "frames", "qpos", "qvel", "act", "_return", "_abs_err")

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import numpy as np
 import torch
-from tensordict import TensorDict
 
 from shoulder_bench import full_arm, protocol, statics_full, trajectory3
 from shoulder_bench.arm import harden_couplings
@@ -27,6 +26,8 @@ from shoulder_bench.tendon_law import TendonLaw
 class VecEnv3(Lockstep):
     """`shoulder_bench.make_vec(name, num_envs, ...)` for the 3-DOF tasks; `trajectory`: one target for all copies
     or a list with one per copy (a copy's episodes then repeat its target)."""
+
+    DONE_DTYPE = torch.bool  # as its step returned them before `advance` (its runs were trained so)
 
     def __init__(self, name: str, num_envs: int, device: str = "cpu", seed=None, trajectory=None,
                  muscle_model: str = "fem", nthread: int = 2, **options):
@@ -102,7 +103,9 @@ class VecEnv3(Lockstep):
         return full_arm.angular_distance_deg(self.pose.orientation(self.qpos),
                                              self.pose.orientation(self.pose.qpos(target)))
 
-    def step(self, actions) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
+    def advance(self, actions) -> tuple[np.ndarray, np.ndarray, dict]:
+        """One frame of every copy (auto-reset of the ended ones): rewards (N,), dones (N,) bool, extras; see
+        `Lockstep.step`."""
         a = actions.detach().cpu().numpy() if isinstance(actions, torch.Tensor) else np.asarray(actions)
         applied, sent = protocol.to_delta(a, self.n, self.discrete, batch=self.num_envs)
         self.act = np.clip(self.act + applied, 0.0, 1.0)
@@ -131,9 +134,7 @@ class VecEnv3(Lockstep):
             extras["log"] = {"/episode/return": float(self._return[finished].mean())}
             self._finished.extend(self._return[finished].tolist())
             self._reset(finished)
-        obs = self._observation()
-        return (obs, torch.as_tensor(reward, dtype=torch.float32, device=self.device),
-                torch.as_tensor(done, device=self.device), extras)
+        return reward, done, extras
 
     def state_dict(self) -> dict:
         return {"num_envs": self.num_envs, "name": self.name, "rngs": [r.bit_generator.state for r in self.rngs],

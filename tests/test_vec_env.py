@@ -112,3 +112,39 @@ def test_make_vec_names_its_backends():
 
     with pytest.raises(ValueError, match="backend must be 'mujoco' or 'mjx'"):
         shoulder_bench.make_vec("abduction_4m", 2, backend="warp")
+
+
+@pytest.mark.parametrize("name", ["abduction_4m", "track_3dof"])
+def test_step_is_advance_plus_the_observation(name):
+    """rsl-rl's step (TensorDict, float32 rewards, dones) and the array path evaluation uses (`advance`,
+    `observation_array`) give the same frames, auto-resets included."""
+    a, b = shoulder_bench.make_vec(name, 3, seed=2), shoulder_bench.make_vec(name, 3, seed=2)
+    gen = torch.Generator().manual_seed(0)
+    for _ in range(a.max_episode_length + 2):  # past every copy's first episode
+        act = torch.rand(3, a.num_actions, generator=gen) * 0.02 - 0.01
+        obs, reward, done, extras = a.step(act)
+        r, d, e = b.advance(act)
+        np.testing.assert_array_equal(obs["policy"].numpy(), b.observation_array().astype(np.float32))
+        np.testing.assert_array_equal(reward.numpy(), r.astype(np.float32))
+        assert done.dtype == a.DONE_DTYPE and (done.numpy().astype(bool) == d).all()
+        assert (extras["time_outs"] == e["time_outs"]).all()
+    assert d.dtype == bool
+    a.close()
+    b.close()
+
+
+def test_evaluation_imports_no_tensordict():
+    """`eval` steps the copies with `advance` and reads `observation_array`: tensordict (which imports
+    torch._dynamo, about 1.4 s of start-up) stays unimported; training imports it on its first step."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from shoulder_bench.eval.evaluate import evaluate, policy_for, trajectories_for\n"
+            "p, meta, task = policy_for('pretrained:ppo_4m')\n"
+            "m = evaluate(p, task, trajectories_for('test')[:2])\n"
+            "assert 'tensordict' not in sys.modules, 'evaluation imported tensordict'\n"
+            "import shoulder_bench, torch\n"
+            "shoulder_bench.make_vec(task, 1).step(torch.zeros(1, 4))\n"
+            "assert 'tensordict' in sys.modules\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
