@@ -23,6 +23,7 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco's GL context
 
+from shoulder_bench.eval.overlay import Overlay  # noqa: E402
 from shoulder_bench.eval.render_model import IDLE, PALE, SATURATED, Poser, build_render_model  # noqa: E402
 
 CAMERAS = ("front", "back")
@@ -123,49 +124,6 @@ def _hermite(p0, v0, p1, v1, s, h):
     s2, s3 = s * s, s * s * s
     return ((2 * s3 - 3 * s2 + 1) * p0 + (s3 - 2 * s2 + s) * h * v0 + (-2 * s3 + 3 * s2) * p1
             + (s3 - s2) * h * v1)
-
-
-class Overlay:
-    def __init__(self, width: int, height: int, title: str, muscles, scale: float):
-        from PIL import ImageFont
-
-        self.size = max(9, height // 22)
-        self.font = ImageFont.load_default(size=self.size)
-        self.small = ImageFont.load_default(size=max(8, int(self.size * 0.85)))
-        self.title, self.muscles, self.scale = title, muscles, scale
-        self.width, self.height = width, height
-
-    def draw(self, frame: np.ndarray, t: float, angle: float, target: float, acts, crashed: bool) -> np.ndarray:
-        from PIL import Image, ImageDraw
-
-        img = Image.fromarray(frame)
-        d = ImageDraw.Draw(img, "RGBA")
-        pad, s = max(3, self.size // 3), self.size
-        # bottom band: time, angle, target
-        text = f"t {t:5.2f} s   angle {angle:6.1f}°   target {target:6.1f}°"
-        if crashed:
-            text += "   CRASHED"
-        d.rectangle([0, self.height - s - 2 * pad, self.width, self.height], fill=(0, 0, 0, 150))
-        d.text((pad, self.height - s - pad), text, font=self.font, fill=(255, 255, 255))
-        # top left: what is shown
-        d.text((pad, pad), self.title, font=self.small, fill=(255, 255, 255), stroke_width=1, stroke_fill=(0, 0, 0))
-        # top right: activation bars in the muscles' colours, full bar = the colour scale
-        bar_w, row = max(20, self.width // 8), int(self.small.size * 1.3)
-        x1 = self.width - pad - bar_w
-        label_w = max(self.small.getlength(f"{m} 00.0%") for m in self.muscles)
-        top = pad if self.small.getlength(self.title) + label_w + bar_w + 4 * pad < self.width else pad + row
-        for i, (name, a) in enumerate(zip(self.muscles, acts)):
-            y = top + i * row
-            f = min(float(a) / self.scale, 1.0)
-            rgb = tuple(int(255 * c) for c in (PALE[:3] + f * (SATURATED[:3] - PALE[:3])))
-            d.text((x1 - pad, y), f"{name} {100 * float(a):4.1f}%", font=self.small, fill=(255, 255, 255),
-                   anchor="ra", stroke_width=1, stroke_fill=(0, 0, 0))
-            d.rectangle([x1, y + 1, x1 + bar_w, y + row - 2], fill=(0, 0, 0, 120), outline=(255, 255, 255, 160))
-            d.rectangle([x1, y + 1, x1 + int(round(bar_w * f)), y + row - 2], fill=rgb)
-        y = top + len(self.muscles) * row
-        d.text((x1 + bar_w, y), f"bar = {100 * self.scale:g}%", font=self.small, fill=(220, 220, 220), anchor="ra",
-               stroke_width=1, stroke_fill=(0, 0, 0))
-        return np.asarray(img)
 
 
 # --- writers ------------------------------------------------------------------------------------------------------

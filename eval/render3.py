@@ -14,7 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from shoulder_bench.eval.render import Overlay, colour_scale, write_video
+from shoulder_bench.eval.overlay import Overlay
+from shoulder_bench.eval.render import colour_scale, write_video
 from shoulder_bench.eval.render_model import GHOST, PALE, SATURATED, build_render_model
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from shoulder_bench.cli import render as render_cli
-from shoulder_bench.eval import render, render_model
+from shoulder_bench.eval import overlay, render, render_model
 from shoulder_bench.eval.render import render_video
 
 W, H = 160, 120
@@ -97,10 +97,71 @@ def test_failure_while_rendering_leaves_no_partial_file(tmp_path, monkeypatch):
             raise RuntimeError("boom")
         return frame
 
-    monkeypatch.setattr(render.Overlay, "draw", draw)
+    monkeypatch.setattr(overlay.Overlay, "draw", draw)
     with pytest.raises(RuntimeError, match="boom"):
         render_video(tmp_path / "x.mp4", seconds=1, width=W, height=H, fps=10)
     assert list(tmp_path.iterdir()) == []
+
+
+def _overlay_reference(ov, frame, t, angle, target, acts, crashed):
+    """The overlay as Pillow draws it on the whole frame (`Overlay.draw` before its caching): the pixels to give."""
+    from PIL import Image, ImageDraw
+
+    img = Image.fromarray(frame)
+    d = ImageDraw.Draw(img, "RGBA")
+    pad, s = max(3, ov.size // 3), ov.size
+    text = f"t {t:5.2f} s   angle {angle:6.1f}°   target {target:6.1f}°"
+    if crashed:
+        text += "   CRASHED"
+    d.rectangle([0, ov.height - s - 2 * pad, ov.width, ov.height], fill=(0, 0, 0, 150))
+    d.text((pad, ov.height - s - pad), text, font=ov.font, fill=(255, 255, 255))
+    d.text((pad, pad), ov.title, font=ov.small, fill=(255, 255, 255), stroke_width=1, stroke_fill=(0, 0, 0))
+    bar_w, row = max(20, ov.width // 8), int(ov.small.size * 1.3)
+    x1 = ov.width - pad - bar_w
+    label_w = max(ov.small.getlength(f"{m} 00.0%") for m in ov.muscles)
+    top = pad if ov.small.getlength(ov.title) + label_w + bar_w + 4 * pad < ov.width else pad + row
+    for i, (name, a) in enumerate(zip(ov.muscles, acts)):
+        y = top + i * row
+        f = min(float(a) / ov.scale, 1.0)
+        rgb = tuple(int(255 * c) for c in (render_model.PALE[:3] + f * (render_model.SATURATED[:3] -
+                                                                          render_model.PALE[:3])))
+        d.text((x1 - pad, y), f"{name} {100 * float(a):4.1f}%", font=ov.small, fill=(255, 255, 255),
+               anchor="ra", stroke_width=1, stroke_fill=(0, 0, 0))
+        d.rectangle([x1, y + 1, x1 + bar_w, y + row - 2], fill=(0, 0, 0, 120), outline=(255, 255, 255, 160))
+        d.rectangle([x1, y + 1, x1 + int(round(bar_w * f)), y + row - 2], fill=rgb)
+    y = top + len(ov.muscles) * row
+    d.text((x1 + bar_w, y), f"bar = {100 * ov.scale:g}%", font=ov.small, fill=(220, 220, 220), anchor="ra",
+           stroke_width=1, stroke_fill=(0, 0, 0))
+    return np.asarray(img)
+
+
+@pytest.mark.parametrize("width, height, title, muscles", [
+    (480, 360, "abduction_4m · ppo (pretrained:ppo_4m)", ["ssp", "isp", "dmi", "ld"]),
+    (W, H, "abduction_ssp · posterosuperior_tear+ld_transfer · reference controller", ["ssp"]),  # bars below title
+    (48, 40, "track_3dof · a title wider than the frame", ["ssp", "isp", "dmi", "ld", "ams", "pms", "pec1"]),
+])
+def test_overlay_gives_the_pixels_of_drawing_on_the_whole_frame(width, height, title, muscles):
+    """The cached overlay (static text drawn once, only the rows it covers through Pillow) is pixel for pixel Pillow's
+    drawing on the whole frame: over noise, repeated labels (cache hits), zero and saturated bars, a crash, text and
+    bars reaching past the frame's edges."""
+    rng = np.random.default_rng(1)
+    for scale in (0.05, 1.0):
+        ov = overlay.Overlay(width, height, title, muscles, scale)
+        for k in range(6):
+            frame = rng.integers(0, 256, (height, width, 3), dtype=np.uint8)
+            acts = [0.0] * len(muscles) if k == 0 else rng.uniform(0, 1, len(muscles)) * [0.01, 0.1, 1.0][k % 3]
+            args = (rng.uniform(0, 99), rng.uniform(-200, 200), rng.uniform(0, 180), acts, k == 2)
+            want = _overlay_reference(ov, frame.copy(), *args)
+            got = ov.draw(frame, *args)
+            assert got is frame  # drawn in place
+            assert np.array_equal(got, want), f"{np.count_nonzero((got != want).any(-1))} pixels differ"
+            if k == 5:  # the same labels again: from the cache
+                frame = rng.integers(0, 256, frame.shape, dtype=np.uint8)
+                want = _overlay_reference(ov, frame.copy(), *args)
+                assert np.array_equal(ov.draw(frame, *args), want)
+                frame = rng.integers(0, 256, frame.shape, dtype=np.uint8)
+                frame.flags.writeable = False  # a read-only frame: drawn on a copy
+                assert np.array_equal(ov.draw(frame, *args), _overlay_reference(ov, frame, *args))
 
 
 def test_render_model_poses_arm_girdle_and_ghost_as_the_task_model():
