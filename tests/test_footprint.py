@@ -151,3 +151,42 @@ def test_two_reports_compare_over_the_poses_both_solved(tmp_path):
     b = report(tmp_path / "b.json", [("ssp", [0, 0, 0], [1.5, 2.0, 1.0]), ("ssp", [0, 10, 0], [9.0, 9.0, 9.0])])
     out = mesh_difference(a, b)  # tma is not in b: left out, not an error
     assert out == {"ssp": {"poses": 1, "max_diff_mm": [0.5, 0.0, 2.0]}}
+
+
+def _levels_result(torque, tension):
+    from shoulder_bench.authoring.fem.footprint_activation import LEVELS
+
+    assert torque.shape[1] == len(LEVELS)
+    return {"tendon": "x", "poses_deg": np.zeros((len(torque), 3)), "torque_Nm": torque, "tension_N": tension,
+            "f0_N": 100.0}
+
+
+def test_the_activation_measures_are_zero_for_a_linear_fixed_line_of_action_and_see_a_departure():
+    from shoulder_bench.authoring.fem.footprint_activation import LEVELS, measures
+
+    rng = np.random.default_rng(0)
+    arm = rng.uniform(-0.03, 0.03, (5, 1, 3))  # m, per pose: the same at every level
+    tension = 10.0 + 200.0 * np.array(LEVELS)[None, :] * rng.uniform(0.5, 1.0, (5, 1))  # linear in a
+    m = measures(_levels_result(arm * tension[..., None], tension))
+    for a in ("0.25", "0.5"):
+        assert m["arm_mm"][a]["taut_poses"] == 5
+        assert max(v for k, v in m["arm_mm"][a].items() if k != "taut_poses") < 1e-9
+        assert max(m["linearity_pct"][a].values()) < 1e-9
+    bent = arm * tension[..., None]
+    bent[2, LEVELS.index(0.5), 1] += 0.05 * np.abs(bent[..., 1]).max()  # 5 % of the peak, elevation, a = 0.5
+    m = measures(_levels_result(bent, tension))
+    assert m["linearity_pct"]["0.5"]["shoulder_elv"] == pytest.approx(5.0, rel=1e-6)
+    assert m["arm_mm"]["0.5"]["shoulder_elv"] > 0.1 and m["linearity_pct"]["0.25"]["shoulder_elv"] < 1e-9
+
+
+def test_solved_over_activations_the_full_activation_arms_are_the_reports(pose):
+    """solve_levels at a = 1 is the report's solve (same sheet, same poses): the same moment arms."""
+    from shoulder_bench.authoring.fem.footprint_activation import LEVELS, measures, solve_levels
+
+    poses = np.array(POSES[:2])
+    res = solve_levels("tmi", poses, "coarse", "wrap", pose)
+    one = LEVELS.index(1.0)
+    arms = res["torque_Nm"][:, one] / res["tension_N"][:, one, None]
+    np.testing.assert_allclose(arms, F.compare("tmi", poses, "coarse", pose=pose)["fem_m"], atol=1e-9)
+    m = measures(res)
+    assert m["solved"] == 2 and all(np.isfinite(v) for v in m["linearity_pct"]["0.5"].values())

@@ -87,6 +87,8 @@ def _footprint(args) -> int:
                          f"choose from {', '.join(TENDONS)}")
     if args.out is not None and args.out.exists() and not args.out.is_dir():
         raise SystemExit(f"shoulder-bench fem footprint: error: --out {args.out} is a file, not a folder")
+    if args.activation:  # the line of action and linearity over activations (footprint_activation)
+        from shoulder_bench.authoring.fem.footprint_activation import run
     run(tuple(args.tendon) if args.tendon else TENDONS, "coarse" if args.coarse else "full", args.out, args.surface)
     return 0
 
@@ -122,6 +124,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     f.add_argument("--surface", choices=("wrap", "head"), default="wrap",
                    help="contact with the MJCF's wrap objects (default) or with the humeral head sphere fitted to the "
                    "MoBL parent's humerus (ssp and isp; footprint_head.json)")
+    f.add_argument("--activation", action="store_true",
+                   help="instead: solve at activations 0, 0.25, 0.5, 1 and report how the line of action and the "
+                   "torque depend on the activation (footprint_activation.json)")
     f.set_defaults(func=_footprint)
     c = sub.add_parser("convergence", help="mesh-refinement study of the torque at a few points (slow)")
     c.add_argument("--muscle", type=_muscle, default="ssp")
