@@ -190,3 +190,36 @@ def test_solved_over_activations_the_full_activation_arms_are_the_reports(pose):
     np.testing.assert_allclose(arms, F.compare("tmi", poses, "coarse", pose=pose)["fem_m"], atol=1e-9)
     m = measures(res)
     assert m["solved"] == 2 and all(np.isfinite(v) for v in m["linearity_pct"]["0.5"].values())
+
+
+def test_the_grid_checks_cells_are_held_out_poses_with_their_grid_corners():
+    from shoulder_bench import full_arm
+    from shoulder_bench.authoring.fem.footprint_grid import cells
+
+    centres, corners, index = cells(5)
+    grid = {tuple(p) for p in full_arm.pose_grid()}
+    assert all(tuple(p) in grid for p in corners)  # every corner is a pose of the tasks' grid
+    np.testing.assert_allclose(corners[index].mean(axis=1), centres)  # the centre of its 8 corners
+    step = np.array([full_arm.POSE_STEP_DEG[c] for c in full_arm.COORDINATES])
+    assert (np.abs(corners[index] - centres[:, None]) == step / 2).all()
+
+
+def test_the_grid_check_scores_the_scheme_against_a_fresh_solve(pose, monkeypatch):
+    """A torque field that is trilinear in the pose and linear in a is reproduced exactly by the scheme (0 %); one
+    that is not is scored by how far it is off, in % of the peak."""
+    from shoulder_bench.authoring.fem import footprint_grid
+
+    def field(poses, a, bend):
+        p = np.radians(poses)
+        return (1.0 + a) * np.stack([p[:, 0] + 2 * p[:, 1], p[:, 1] - p[:, 2], 3 + p[:, 2]], 1) + bend * np.cos(
+            4 * p) * a ** 2
+
+    for bend, expect_zero in ((0.0, True), (0.5, False)):
+        def fake(tendon, poses, resolution, surface, pose, progress=None, levels=(), bend=bend):
+            return {"torque_Nm": np.stack([field(poses, a, bend) for a in levels], axis=1)}
+
+        monkeypatch.setattr(footprint_grid, "solve_levels", fake)
+        r = footprint_grid.check("tmi", 4, pose=pose)
+        worst = max(r["scheme_a05"].values())
+        assert r["checked"] == 4 and (worst < 1e-9) == expect_zero, worst
+    assert r["within_tol"] is (worst <= 2.0)

@@ -87,8 +87,12 @@ def _footprint(args) -> int:
                          f"choose from {', '.join(TENDONS)}")
     if args.out is not None and args.out.exists() and not args.out.is_dir():
         raise SystemExit(f"shoulder-bench fem footprint: error: --out {args.out} is a file, not a folder")
+    if args.activation and args.grid:
+        raise SystemExit("shoulder-bench fem footprint: error: give --activation or --grid, not both")
     if args.activation:  # the line of action and linearity over activations (footprint_activation)
         from shoulder_bench.authoring.fem.footprint_activation import run
+    if args.grid:  # a torque table on the tasks' pose grid against held-out re-solves (footprint_grid)
+        from shoulder_bench.authoring.fem.footprint_grid import run
     run(tuple(args.tendon) if args.tendon else TENDONS, "coarse" if args.coarse else "full", args.out, args.surface)
     return 0
 
@@ -127,6 +131,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     f.add_argument("--activation", action="store_true",
                    help="instead: solve at activations 0, 0.25, 0.5, 1 and report how the line of action and the "
                    "torque depend on the activation (footprint_activation.json)")
+    f.add_argument("--grid", action="store_true",
+                   help="instead: would a table of the torque vector on the tasks' pose grid at a = 0 and 1 meet the "
+                   "2 %% bound? held-out cells re-solved (footprint_grid.json)")
     f.set_defaults(func=_footprint)
     c = sub.add_parser("convergence", help="mesh-refinement study of the torque at a few points (slow)")
     c.add_argument("--muscle", type=_muscle, default="ssp")

@@ -26,19 +26,20 @@ LEVELS = (0.0, 0.25, 0.5, 1.0)
 TAUT = 0.01  # of F0: below it the moment arm (torque / tension) is not compared
 
 
-def solve_levels(tendon: str, poses: np.ndarray, resolution: str, surface: str, pose: Pose, progress=None) -> dict:
-    """Torque (P, L, 3) N m and tension (P, L) N of `tendon`'s sheet at `poses` x LEVELS (NaN: no equilibrium).
+def solve_levels(tendon: str, poses: np.ndarray, resolution: str, surface: str, pose: Pose, progress=None,
+                 levels=LEVELS) -> dict:
+    """Torque (P, L, 3) N m and tension (P, L) N of `tendon`'s sheet at `poses` x `levels` (NaN: no equilibrium).
 
     At each pose the sheet is solved at a = 1 (`FootprintSheet.solve`: from the reference pose) and then continued
     down the levels at that pose (the solver's activation continuation, steps <= 0.25), which is several times
     cheaper than walking every level from the reference; where that fails the level is solved from the reference."""
     sheet = FootprintSheet(tendon, resolution, pose=pose, surface=surface)
-    torque = np.full((len(poses), len(LEVELS), 3), np.nan)
-    tension = np.full((len(poses), len(LEVELS)), np.nan)
+    torque = np.full((len(poses), len(levels), 3), np.nan)
+    tension = np.full((len(poses), len(levels)), np.nan)
     for k, p in enumerate(poses):
         above = None  # (nodes, activation) of the last level solved at this pose
-        for j in sorted(range(len(LEVELS)), key=lambda i: -LEVELS[i]):
-            a = LEVELS[j]
+        for j in sorted(range(len(levels)), key=lambda i: -levels[i]):
+            a = levels[j]
             try:
                 if above is None:
                     s = sheet.solve(p, a)
