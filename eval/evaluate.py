@@ -154,10 +154,7 @@ def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: st
     coord = np.full((n, int(frames.max()), 3), np.nan) if per_coordinate else None
     crashed = np.zeros(n, dtype=bool)
     active = np.ones(n, dtype=bool)
-    def observation() -> torch.Tensor:  # the arrays, not rsl-rl's TensorDict: no tensordict import (Lockstep)
-        return torch.as_tensor(venv.observation_array(), dtype=torch.float32)
-
-    obs = observation()
+    obs = venv.observation_tensor()  # not rsl-rl's TensorDict: evaluation imports no tensordict (Lockstep)
     if record:
         coords = err.shape + (3,) if per_coordinate else err.shape
         trace = {"angle_deg": np.full(coords, np.nan), "target_deg": np.full(coords, np.nan),
@@ -168,7 +165,7 @@ def evaluate(policy, task: str, trajectories: list[Trajectory], muscle_model: st
         for k in range(int(frames.max())):
             action = policy(obs)
             _, done, _ = venv.advance(action)
-            obs = observation()
+            obs = venv.observation_tensor()
             e = venv.last_error_deg
             now_crashed = active & venv.last_crashed
             err[active & ~now_crashed, k] = e[active & ~now_crashed]

@@ -48,10 +48,14 @@ class Lockstep:
 
     DONE_DTYPE = torch.long  # of the dones `step` returns
 
+    def observation_tensor(self) -> torch.Tensor:
+        """(N, obs) float32 on the env's device: what the policy sees (the TensorDict's "policy" entry)."""
+        return torch.as_tensor(self.observation_array(), dtype=torch.float32, device=self.device)
+
     def _observation(self) -> TensorDict:
         from tensordict import TensorDict
 
-        flat = torch.as_tensor(self.observation_array(), dtype=torch.float32, device=self.device)
+        flat = self.observation_tensor()
         return TensorDict({"policy": flat, "critic": flat.clone()}, batch_size=[self.num_envs], device=self.device)
 
     def get_observations(self) -> TensorDict:

@@ -157,8 +157,8 @@ def _levels_result(torque, tension):
     from shoulder_bench.authoring.fem.footprint_activation import LEVELS
 
     assert torque.shape[1] == len(LEVELS)
-    return {"tendon": "x", "poses_deg": np.zeros((len(torque), 3)), "torque_Nm": torque, "tension_N": tension,
-            "f0_N": 100.0}
+    return {"tendon": "x", "poses_deg": np.zeros((len(torque), 3)), "levels": LEVELS, "torque_Nm": torque,
+            "tension_N": tension, "f0_N": 100.0}
 
 
 def test_the_activation_measures_are_zero_for_a_linear_fixed_line_of_action_and_see_a_departure():

@@ -11,16 +11,13 @@ activations LEVELS. Per tendon and coordinate it reports
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from shoulder_bench.authoring.fem.footprint import FootprintSheet
 from shoulder_bench.authoring.fem.solver import NoConvergence
 from shoulder_bench.full_arm import COORDINATE_LABELS, COORDINATES, Pose
-from shoulder_bench.muscle import replacing
 
 LEVELS = (0.0, 0.25, 0.5, 1.0)
 TAUT = 0.01  # of F0: below it the moment arm (torque / tension) is not compared
@@ -56,22 +53,23 @@ def solve_levels(tendon: str, poses: np.ndarray, resolution: str, surface: str, 
             torque[k, j], tension[k, j] = s["torque_Nm"], s["tension_N"]
         if progress is not None:
             progress()
-    return {"tendon": tendon, "poses_deg": poses, "torque_Nm": torque, "tension_N": tension, "f0_N": sheet.f0}
+    return {"tendon": tendon, "poses_deg": poses, "levels": tuple(levels), "torque_Nm": torque, "tension_N": tension,
+            "f0_N": sheet.f0}
 
 
 def measures(res: dict) -> dict:
     """The line-of-action and linearity measures of the module docstring from `solve_levels`' result."""
-    tau, ten, f0 = res["torque_Nm"], res["tension_N"], res["f0_N"]
-    one = LEVELS.index(1.0)
+    tau, ten, f0, levels = res["torque_Nm"], res["tension_N"], res["f0_N"], res["levels"]
+    one, zero = levels.index(1.0), levels.index(0.0)
     ok = np.isfinite(tau).all(axis=(1, 2))  # poses solved at every level
     peak = np.nanmax(np.abs(tau[ok]), axis=(0, 1))
     out = {"tendon": res["tendon"], "poses": int(len(ok)), "solved": int(ok.sum()),
            "peak_torque_Nm": dict(zip(COORDINATES, peak.tolist())), "arm_mm": {}, "linearity_pct": {}}
     for a in (0.25, 0.5):
-        j = LEVELS.index(a)
+        j = levels.index(a)
         taut = ok & (ten[:, j] >= TAUT * f0) & (ten[:, one] >= TAUT * f0)
         d_arm = np.abs(tau[taut, j] / ten[taut, j, None] - tau[taut, one] / ten[taut, one, None]) * 1e3
-        line = (1 - a) * tau[ok, 0] + a * tau[ok, one]
+        line = (1 - a) * tau[ok, zero] + a * tau[ok, one]
         d_lin = np.abs(tau[ok, j] - line).max(axis=0) / peak * 100
         out["arm_mm"][str(a)] = {"taut_poses": int(taut.sum()),
                                  **dict(zip(COORDINATES, (d_arm.max(axis=0) if taut.any() else [np.nan] * 3)))}
@@ -84,17 +82,11 @@ def measures(res: dict) -> dict:
 def run(tendons, resolution: str = "coarse", out: Path | None = None, surface: str = "wrap") -> list[dict]:
     """Solve every tendon at the report poses x LEVELS, print the measures; with `out`, write
     footprint_activation[_head].json there."""
-    from shoulder_bench.authoring.fem.footprint_report import report_poses
+    from shoulder_bench.authoring.fem.footprint_report import each_tendon, output_stem, report_poses, write_json
 
     poses, pose = report_poses(), Pose()
-    rows = []
-    with tqdm(total=len(tendons) * len(poses), desc="footprint sheets x activations", unit="pose") as bar:
-        for t in tendons:
-            try:
-                rows.append(measures(solve_levels(t, poses, resolution, surface, pose, bar.update)))
-            except ValueError as exc:  # no sheet for it (raised before any solve)
-                bar.update(len(poses))
-                tqdm.write(f"skipped: {exc}")
+    rows = each_tendon(tendons, len(poses), "footprint sheets x activations",
+                       lambda t, progress: measures(solve_levels(t, poses, resolution, surface, pose, progress)))
     labels = [COORDINATE_LABELS[c] for c in COORDINATES]
     print(f"line of action: largest |moment arm at a - at a = 1| (mm), taut poses; linearity: largest |tau(a) - "
           f"linear between a = 0 and 1| (% of peak); {resolution} sheets, contact: {surface}")
@@ -107,11 +99,8 @@ def run(tendons, resolution: str = "coarse", out: Path | None = None, surface: s
                   + " ".join(f"{arm[c]:9.2f}" for c in COORDINATES) + "             "
                   + " ".join(f"{lin[c]:8.2f}%" for c in COORDINATES))
     if out is not None:
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
-        stem = "footprint_activation" if surface == "wrap" else f"footprint_activation_{surface}"
-        with replacing(out / f"{stem}.json") as tmp:  # written whole or not at all
-            tmp.write_text(json.dumps({"resolution": resolution, "surface": surface, "levels": LEVELS,
-                                       "taut_fraction_f0": TAUT, "tendons": rows}, indent=1))
-        print(f"wrote {out / f'{stem}.json'}")
+        path = output_stem(out, "footprint_activation", surface).with_suffix(".json")
+        write_json(path, {"resolution": resolution, "surface": surface, "levels": LEVELS, "taut_fraction_f0": TAUT,
+                          "tendons": rows})
+        print(f"wrote {path}")
     return rows

@@ -14,16 +14,14 @@ interpolation's part (corners' mean against the centre, at a = 1 and a = 0) and 
 from __future__ import annotations
 
 import itertools
-import json
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem.footprint_activation import solve_levels
+from shoulder_bench.authoring.fem.footprint_report import each_tendon, output_stem, write_json
 from shoulder_bench.authoring.fem.verify_full import HELD_OUT_TOL, held_out_poses
-from shoulder_bench.muscle import replacing
 
 CELLS = 24  # held-out poses (cells) per tendon
 SEED = 0
@@ -65,15 +63,8 @@ def check(tendon: str, n: int = CELLS, resolution: str = "full", surface: str = 
 def run(tendons, resolution: str = "full", out: Path | None = None, surface: str = "wrap", n: int = CELLS):
     """`check` for every tendon; prints a table; with `out`, writes footprint_grid[_head].json there."""
     pose = full_arm.Pose()
-    per_tendon = len(cells(n)[1]) + n
-    rows = []
-    with tqdm(total=len(tendons) * per_tendon, desc="footprint sheets, grid check", unit="pose") as bar:
-        for t in tendons:
-            try:
-                rows.append(check(t, n, resolution, surface, pose, bar.update))
-            except ValueError as exc:  # no sheet for it (raised before any solve)
-                bar.update(per_tendon)
-                tqdm.write(f"skipped: {exc}")
+    rows = each_tendon(tendons, len(cells(n)[1]) + n, "footprint sheets, grid check",
+                       lambda t, progress: check(t, n, resolution, surface, pose, progress))
     labels = [full_arm.COORDINATE_LABELS[c] for c in full_arm.COORDINATES]
     print(f"largest error over the held-out cells, % of the tendon's peak |torque| (bound {HELD_OUT_TOL * 100:g} %); "
           f"{resolution} sheets, contact: {surface}; columns: " + ", ".join(labels))
@@ -84,11 +75,8 @@ def run(tendons, resolution: str = "full", out: Path | None = None, surface: str
         print(f"{r['tendon']:<6} {r['checked']:>2}/{r['cells']}   " + "     ".join(cols)
               + ("" if r["within_tol"] else "   over the bound"))
     if out is not None:
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
-        stem = "footprint_grid" if surface == "wrap" else f"footprint_grid_{surface}"
-        with replacing(out / f"{stem}.json") as tmp:
-            tmp.write_text(json.dumps({"resolution": resolution, "surface": surface, "seed": SEED,
-                                       "step_deg": full_arm.POSE_STEP_DEG, "tendons": rows}, indent=1))
-        print(f"wrote {out / f'{stem}.json'}")
+        path = output_stem(out, "footprint_grid", surface).with_suffix(".json")
+        write_json(path, {"resolution": resolution, "surface": surface, "seed": SEED,
+                          "step_deg": full_arm.POSE_STEP_DEG, "tendons": rows})
+        print(f"wrote {path}")
     return rows

@@ -81,19 +81,39 @@ def figure(results: list[dict], path: Path, surface: str = "wrap") -> None:
     plt.close(fig)
 
 
+def each_tendon(tendons, poses_each: int, desc: str, solve) -> list:
+    """solve(tendon, progress) for every tendon under one progress bar of `poses_each` poses a tendon; a tendon
+    without a sheet (a ValueError, raised before any solve) is skipped, saying why. The footprint commands' loop."""
+    results = []
+    with tqdm(total=len(tendons) * poses_each, desc=desc, unit="pose") as bar:
+        for t in tendons:
+            try:
+                results.append(solve(t, bar.update))
+            except ValueError as exc:
+                bar.update(poses_each)
+                tqdm.write(f"skipped: {exc}")
+    return results
+
+
+def output_stem(out: Path, name: str, surface: str) -> Path:
+    """`out`/name (wrap contact) or `out`/name_SURFACE, `out` created: where a footprint command writes."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    return out / (name if surface == "wrap" else f"{name}_{surface}")
+
+
+def write_json(path: Path, data: dict) -> None:
+    with replacing(path) as tmp:  # written whole or not at all
+        tmp.write_text(json.dumps(data, indent=1))
+
+
 def run(tendons=TENDONS, resolution: str = "full", out: Path | None = None, surface: str = "wrap") -> list[dict]:
     """Solve every tendon at every report pose with contact on `surface` (`footprint.SURFACES`; a tendon whose
     sheet cannot touch it is skipped, saying why); print the table; with `out`, write footprint[_head].json and
     footprint[_head]_moment_arms.png there."""
     poses, pose = report_poses(), Pose()  # one compiled model for every tendon
-    results = []
-    with tqdm(total=len(tendons) * len(poses), desc="footprint sheets", unit="pose") as bar:
-        for t in tendons:
-            try:
-                results.append(compare(t, poses, resolution, progress=bar.update, surface=surface, pose=pose))
-            except ValueError as exc:  # raised before any solve
-                bar.update(len(poses))
-                tqdm.write(f"skipped: {exc}")
+    results = each_tendon(tendons, len(poses), "footprint sheets", lambda t, progress: compare(
+        t, poses, resolution, progress=progress, surface=surface, pose=pose))
     rows = [summary(r) for r in results]
     print("|FEM - MJCF| moment arm, RMS / largest (the MJCF arm's RMS), mm")
     print("tendon  width  stretch    poses         plane               elevation           rotation         contact")
@@ -109,20 +129,17 @@ def run(tendons=TENDONS, resolution: str = "full", out: Path | None = None, surf
             tail = f"median {s['contact_N_median']:.0f} N" if subset == "all" else ""
             print(f"{head}  {subset:>6} {count:>2}/{s['poses']}  {cells}  {tail}")
     if out is not None:
-        out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
+        stem = output_stem(out, "footprint", surface)
         data = {"resolution": resolution, "surface": surface, "summary": rows,
                 "poses": [{"tendon": r["tendon"], "pose_deg": p.tolist(), "converged": bool(ok),
                            "stretch": float(lam), "fem_mm": (f * 1e3).tolist() if ok else None,
                            "mjcf_mm": (j * 1e3).tolist()}
                           for r in results for p, f, j, ok, lam in zip(r["poses_deg"], r["fem_m"], r["mjcf_m"],
                                                                         r["converged"], r["stretch"])]}
-        stem = "footprint" if surface == "wrap" else f"footprint_{surface}"
-        with replacing(out / f"{stem}.json") as tmp:  # written whole or not at all
-            tmp.write_text(json.dumps(data, indent=1))
-        with replacing(out / f"{stem}_moment_arms.png") as tmp:
+        write_json(stem.with_name(stem.name + ".json"), data)
+        with replacing(stem.with_name(stem.name + "_moment_arms.png")) as tmp:
             figure(results, tmp, surface)
-        print(f"wrote {out / f'{stem}.json'} and {out / f'{stem}_moment_arms.png'}")
+        print(f"wrote {stem}.json and {stem}_moment_arms.png")
     return results
 
 
