@@ -202,6 +202,11 @@ def test_the_grid_checks_cells_are_held_out_poses_with_their_grid_corners():
     np.testing.assert_allclose(corners[index].mean(axis=1), centres)  # the centre of its 8 corners
     step = np.array([full_arm.POSE_STEP_DEG[c] for c in full_arm.COORDINATES])
     assert (np.abs(corners[index] - centres[:, None]) == step / 2).all()
+    # refined: each cell is a sub-cell of the same tasks' grid cell, on the grid 2 times finer
+    fine_centres, fine_corners, fine_index = cells(5, refine=2)
+    np.testing.assert_allclose(fine_corners[fine_index].mean(axis=1), fine_centres)
+    assert (np.abs(fine_corners[fine_index] - fine_centres[:, None]) == step / 4).all()
+    assert (np.abs(fine_centres - centres) == step / 4).all()  # inside its cell, a quarter step off its centre
 
 
 def test_the_grid_check_scores_the_scheme_against_a_fresh_solve(pose, monkeypatch):
@@ -216,10 +221,14 @@ def test_the_grid_check_scores_the_scheme_against_a_fresh_solve(pose, monkeypatc
 
     for bend, expect_zero in ((0.0, True), (0.5, False)):
         def fake(tendon, poses, resolution, surface, pose, progress=None, levels=(), bend=bend):
-            return {"torque_Nm": np.stack([field(poses, a, bend) for a in levels], axis=1)}
+            ones = np.ones((len(poses), len(levels)))
+            return {"torque_Nm": np.stack([field(poses, a, bend) for a in levels], axis=1), "tension_N": 50 * ones,
+                    "contact_N": 0 * ones, "f0_N": 100.0}
 
         monkeypatch.setattr(footprint_grid, "solve_levels", fake)
-        r = footprint_grid.check("tmi", 4, pose=pose)
-        worst = max(r["scheme_a05"].values())
-        assert r["checked"] == 4 and (worst < 1e-9) == expect_zero, worst
+        for refine in (1, 2):
+            r = footprint_grid.check("tmi", 4, pose=pose, refine=refine)
+            worst = max(r["scheme_a05"].values())
+            assert r["checked"] == 4 and (worst < 1e-9) == expect_zero, worst
+            assert [c["tension_a1_pct_f0"] for c in r["cell_records"]] == [50.0] * 4
     assert r["within_tol"] is (worst <= 2.0)

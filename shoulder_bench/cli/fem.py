@@ -89,11 +89,18 @@ def _footprint(args) -> int:
         raise SystemExit(f"shoulder-bench fem footprint: error: --out {args.out} is a file, not a folder")
     if args.activation and args.grid:
         raise SystemExit("shoulder-bench fem footprint: error: give --activation or --grid, not both")
+    if args.refine != 1 and not args.grid:
+        raise SystemExit("shoulder-bench fem footprint: error: --refine goes with --grid")
+    if args.refine < 1:
+        raise SystemExit(f"shoulder-bench fem footprint: error: --refine must be a whole number >= 1, "
+                         f"not {args.refine}")
+    extra = {"refine": args.refine} if args.grid else {}
     if args.activation:  # the line of action and linearity over activations (footprint_activation)
         from shoulder_bench.authoring.fem.footprint_activation import run
     if args.grid:  # a torque table on the tasks' pose grid against held-out re-solves (footprint_grid)
         from shoulder_bench.authoring.fem.footprint_grid import run
-    run(tuple(args.tendon) if args.tendon else TENDONS, "coarse" if args.coarse else "full", args.out, args.surface)
+    run(tuple(args.tendon) if args.tendon else TENDONS, "coarse" if args.coarse else "full", args.out, args.surface,
+        **extra)
     return 0
 
 
@@ -134,6 +141,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     f.add_argument("--grid", action="store_true",
                    help="instead: would a table of the torque vector on the tasks' pose grid at a = 0 and 1 meet the "
                    "2 %% bound? held-out cells re-solved (footprint_grid.json)")
+    f.add_argument("--refine", type=int, default=1, metavar="K",
+                   help="with --grid: the same check on a grid K times finer in every coordinate, in sub-cells of "
+                   "the same cells (footprint_grid_refineK.json)")
     f.set_defaults(func=_footprint)
     c = sub.add_parser("convergence", help="mesh-refinement study of the torque at a few points (slow)")
     c.add_argument("--muscle", type=_muscle, default="ssp")

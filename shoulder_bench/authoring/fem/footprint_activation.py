@@ -25,7 +25,8 @@ TAUT = 0.01  # of F0: below it the moment arm (torque / tension) is not compared
 
 def solve_levels(tendon: str, poses: np.ndarray, resolution: str, surface: str, pose: Pose, progress=None,
                  levels=LEVELS) -> dict:
-    """Torque (P, L, 3) N m and tension (P, L) N of `tendon`'s sheet at `poses` x `levels` (NaN: no equilibrium).
+    """Torque (P, L, 3) N m, tension and contact force (P, L) N of `tendon`'s sheet at `poses` x `levels` (NaN: no
+    equilibrium).
 
     At each pose the sheet is solved at a = 1 (`FootprintSheet.solve`: from the reference pose) and then continued
     down the levels at that pose (the solver's activation continuation, steps <= 0.25), which is several times
@@ -33,6 +34,7 @@ def solve_levels(tendon: str, poses: np.ndarray, resolution: str, surface: str, 
     sheet = FootprintSheet(tendon, resolution, pose=pose, surface=surface)
     torque = np.full((len(poses), len(levels), 3), np.nan)
     tension = np.full((len(poses), len(levels)), np.nan)
+    contact = np.full((len(poses), len(levels)), np.nan)
     for k, p in enumerate(poses):
         above = None  # (nodes, activation) of the last level solved at this pose
         for j in sorted(range(len(levels)), key=lambda i: -levels[i]):
@@ -50,11 +52,11 @@ def solve_levels(tendon: str, poses: np.ndarray, resolution: str, surface: str, 
                 above = None
                 continue
             above = (s["nodes"], a)
-            torque[k, j], tension[k, j] = s["torque_Nm"], s["tension_N"]
+            torque[k, j], tension[k, j], contact[k, j] = s["torque_Nm"], s["tension_N"], s["contact_N"]
         if progress is not None:
             progress()
     return {"tendon": tendon, "poses_deg": poses, "levels": tuple(levels), "torque_Nm": torque, "tension_N": tension,
-            "f0_N": sheet.f0}
+            "contact_N": contact, "f0_N": sheet.f0}
 
 
 def measures(res: dict) -> dict:

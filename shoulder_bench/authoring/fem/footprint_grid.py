@@ -10,6 +10,12 @@ corners of the drawn cells at a = 0 and 1 and the centres at a = 0, 0.5 and 1. E
 tendon's peak |torque| over the solved grid corners and both levels (a peak over fewer poses than the whole grid's
 can only be smaller, so the percentages can only be larger than against the full table's). Split into the pose
 interpolation's part (corners' mean against the centre, at a = 1 and a = 0) and the whole scheme's (a = 0.5).
+
+`refine` K > 1 asks the same of a grid K times finer in every coordinate: each drawn cell is replaced by one of its
+K^3 sub-cells (drawn with the same seed), so the refined check looks at the same places in the pose space and its
+errors can be set beside the tasks' grid's cell by cell (how the error falls with the step, and where it stays).
+Every cell's record (centre, the scheme's error, the sheet's tension and contact force at the centre at a = 1) is
+written, to say where the largest errors lie: at slack, at contact onset, or neither.
 """
 from __future__ import annotations
 
@@ -27,47 +33,65 @@ CELLS = 24  # held-out poses (cells) per tendon
 SEED = 0
 
 
-def cells(n: int = CELLS, seed: int = SEED) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(centres (n, 3), the grid poses at their corners (m, 3), corner index (n, 8) into them): n held-out poses."""
+def cells(n: int = CELLS, seed: int = SEED, refine: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(centres (n, 3), the grid poses at their corners (m, 3), corner index (n, 8) into them): n held-out poses of
+    the tasks' grid, or with `refine` K one sub-cell of each of them on the grid K times finer."""
+    rng = np.random.default_rng(seed)
     held = held_out_poses()
-    centres = held[np.sort(np.random.default_rng(seed).choice(len(held), n, replace=False))]
+    centres = held[np.sort(rng.choice(len(held), n, replace=False))]
     half = np.array([full_arm.POSE_STEP_DEG[c] / 2 for c in full_arm.COORDINATES])
+    if refine > 1:  # sub-cell i (0..K-1 per coordinate) of a cell: centre at -h + (2i + 1) h / K from the cell's
+        sub = rng.integers(0, refine, size=(n, 3))
+        centres = centres - half + (2 * sub + 1) * half / refine
+        half = half / refine
     signs = np.array(list(itertools.product((-1.0, 1.0), repeat=3)))
     corners = centres[:, None, :] + signs[None] * half
-    unique, index = np.unique(corners.reshape(-1, 3), axis=0, return_inverse=True)
+    unique, index = np.unique(corners.reshape(-1, 3).round(9), axis=0, return_inverse=True)
     return centres, unique, index.reshape(n, 8)
 
 
 def check(tendon: str, n: int = CELLS, resolution: str = "full", surface: str = "wrap", pose=None,
-          progress=None) -> dict:
+          progress=None, refine: int = 1) -> dict:
     """The errors of the module docstring for `tendon` over `n` held-out cells (NaN where a solve failed)."""
     pose = pose or full_arm.Pose()
-    centres, corners, index = cells(n)
+    centres, corners, index = cells(n, refine=refine)
     grid = solve_levels(tendon, corners, resolution, surface, pose, progress, levels=(0.0, 1.0))["torque_Nm"]
-    mid = solve_levels(tendon, centres, resolution, surface, pose, progress, levels=(0.0, 0.5, 1.0))["torque_Nm"]
+    mid = solve_levels(tendon, centres, resolution, surface, pose, progress, levels=(0.0, 0.5, 1.0))
     peak = np.nanmax(np.abs(grid), axis=(0, 1))
     corner_mean = grid[index].mean(axis=1)  # (n, 2, 3): trilinear at the centres, a = 0 and 1
-    pct = {"pose_a1": np.abs(corner_mean[:, 1] - mid[:, 2]) / peak * 100,
-           "pose_a0": np.abs(corner_mean[:, 0] - mid[:, 0]) / peak * 100,
-           "scheme_a05": np.abs(corner_mean.mean(axis=1) - mid[:, 1]) / peak * 100}
+    tau = mid["torque_Nm"]
+    pct = {"pose_a1": np.abs(corner_mean[:, 1] - tau[:, 2]) / peak * 100,
+           "pose_a0": np.abs(corner_mean[:, 0] - tau[:, 0]) / peak * 100,
+           "scheme_a05": np.abs(corner_mean.mean(axis=1) - tau[:, 1]) / peak * 100}
     ok = np.isfinite(sum(v.sum(axis=1) for v in pct.values()))
-    out = {"tendon": tendon, "cells": n, "checked": int(ok.sum()), "peak_torque_Nm": dict(zip(full_arm.COORDINATES,
-                                                                                             peak.tolist()))}
+    out = {"tendon": tendon, "cells": n, "refine": refine, "checked": int(ok.sum()),
+           "peak_torque_Nm": dict(zip(full_arm.COORDINATES, peak.tolist()))}
     for key, v in pct.items():
         out[key] = dict(zip(full_arm.COORDINATES, v[ok].max(axis=0).tolist())) if ok.any() else None
     worst = out["scheme_a05"]
     out["within_tol"] = bool(worst is not None and max(worst.values()) <= HELD_OUT_TOL * 100)
+    tension, contact = mid["tension_N"][:, 2] / mid["f0_N"] * 100, mid["contact_N"][:, 2]
+    out["cell_records"] = [{"centre_deg": centres[i].tolist(),
+                            "scheme_a05_pct": pct["scheme_a05"][i].tolist() if ok[i] else None,
+                            "tension_a1_pct_f0": _finite(tension[i]), "contact_a1_N": _finite(contact[i])}
+                           for i in range(n)]
     return out
 
 
-def run(tendons, resolution: str = "full", out: Path | None = None, surface: str = "wrap", n: int = CELLS):
-    """`check` for every tendon; prints a table; with `out`, writes footprint_grid[_head].json there."""
+def _finite(x) -> float | None:
+    return float(x) if np.isfinite(x) else None
+
+
+def run(tendons, resolution: str = "full", out: Path | None = None, surface: str = "wrap", n: int = CELLS,
+        refine: int = 1):
+    """`check` for every tendon; prints a table; with `out`, writes footprint_grid[_head][_refineK].json there."""
     pose = full_arm.Pose()
-    rows = each_tendon(tendons, len(cells(n)[1]) + n, "footprint sheets, grid check",
-                       lambda t, progress: check(t, n, resolution, surface, pose, progress))
+    step = {c: full_arm.POSE_STEP_DEG[c] / refine for c in full_arm.COORDINATES}
+    rows = each_tendon(tendons, len(cells(n, refine=refine)[1]) + n, "footprint sheets, grid check",
+                       lambda t, progress: check(t, n, resolution, surface, pose, progress, refine))
     labels = [full_arm.COORDINATE_LABELS[c] for c in full_arm.COORDINATES]
     print(f"largest error over the held-out cells, % of the tendon's peak |torque| (bound {HELD_OUT_TOL * 100:g} %); "
-          f"{resolution} sheets, contact: {surface}; columns: " + ", ".join(labels))
+          f"{resolution} sheets, contact: {surface}; grid step {step} deg; columns: " + ", ".join(labels))
     print("tendon  cells   pose interpolation, a = 1   pose interpolation, a = 0   scheme at a = 0.5 (pose + a)")
     for r in rows:
         cols = ["   ".join("   -  " if r[k] is None else f"{r[k][c]:6.2f}" for c in full_arm.COORDINATES)
@@ -75,8 +99,9 @@ def run(tendons, resolution: str = "full", out: Path | None = None, surface: str
         print(f"{r['tendon']:<6} {r['checked']:>2}/{r['cells']}   " + "     ".join(cols)
               + ("" if r["within_tol"] else "   over the bound"))
     if out is not None:
-        path = output_stem(out, "footprint_grid", surface).with_suffix(".json")
-        write_json(path, {"resolution": resolution, "surface": surface, "seed": SEED,
-                          "step_deg": full_arm.POSE_STEP_DEG, "tendons": rows})
+        stem = output_stem(out, "footprint_grid", surface)
+        path = (stem.with_name(f"{stem.name}_refine{refine}") if refine > 1 else stem).with_suffix(".json")
+        write_json(path, {"resolution": resolution, "surface": surface, "seed": SEED, "refine": refine,
+                          "step_deg": step, "tendons": rows})
         print(f"wrote {path}")
     return rows
