@@ -1,12 +1,17 @@
 """`shoulder-bench reproduce`: the paper's experiments on our model, several seeds each, as a table next to the
-paper's numbers; `--ship` copies the best seed of each experiment into the package's pretrained agents."""
+paper's numbers; `--ship` copies the best seed of each experiment into the package's pretrained agents.
+
+The runs are a sweep (`eval.sweep`: each run `shoulder-bench train --resume` in its own process, `--workers` of them
+at once, finished runs skipped, interrupted ones resumed), so the table is rebuilt from the run folders by running
+the same command again."""
 from __future__ import annotations
 
 import json
 import math
 import os
 import shutil
-from pathlib import Path
+import sys
+import time
 
 import numpy as np
 
@@ -18,7 +23,7 @@ EXPERIMENTS = {
     "ppo_4m": ("abduction_4m", "ppo", 800_000, (5.15, 6.64)),
     "bdq_4m": ("abduction_4m_discrete", "bdq", 500_000, None),
 }
-TABLE = Path("docs/reproduction.md")
+EVAL_EVERY = 100_000  # frames between test-set evaluations (`train`'s default)
 
 
 def check_args(args) -> None:
@@ -28,26 +33,39 @@ def check_args(args) -> None:
         raise ValueError(f"--frames-scale {args.frames_scale}: give a positive number (e.g. 0.01 to smoke-test)")
     if args.runs.exists() and not args.runs.is_dir():
         raise ValueError(f"--runs {args.runs} is an existing file, not a folder; give a folder for the runs")
-    if args.table.is_dir():
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers {args.workers}: give at least 1")
+    if args.table is not None and args.table.is_dir():
         raise ValueError(f"--table {args.table} is a directory; give a file name such as {args.table / 'table.md'}")
 
 
 def run(args) -> int:
-    from shoulder_bench.eval.experiment import train
     from shoulder_bench.eval.plots import replace_all
+    from shoulder_bench.eval.sweep import Job, report, sweep
 
     check_args(args)
-    results = {}
-    for name in args.experiments:
-        task, algo, frames, _ = EXPERIMENTS[name]
-        results[name] = []
-        for seed in args.seeds:
-            out = args.runs / task / algo / str(seed)
-            m = train(task, algo, frames=max(1, int(frames * args.frames_scale)), seed=seed, out=out, resume=True)
-            results[name].append((seed, out, m))
+    jobs = {name: [Job(task, algo, seed, max(1, int(frames * args.frames_scale)), EVAL_EVERY) for seed in args.seeds]
+            for name, (task, algo, frames, _) in ((n, EXPERIMENTS[n]) for n in args.experiments)}
+    t0 = time.perf_counter()
+    try:
+        records = sweep([job for runs in jobs.values() for job in runs], args.runs, args.workers)
+    except KeyboardInterrupt:
+        print("reproduce interrupted; run the same command again to continue (finished runs are skipped, "
+              "interrupted ones resume)", file=sys.stderr)
+        return 130
+    if any(r["status"] == "failed" for r in records):
+        print(report(records), file=sys.stderr)
+        return 1
+    trained = [r["wall_s"] for r in records if r["status"] == "done"]
+    if trained:
+        print(f"trained {len(trained)} runs in {time.perf_counter() - t0:.0f} s end to end ({sum(trained):.0f} s "
+              f"of runs, {args.workers or 'default'} worker(s))")
+    results = {name: [(job.seed, args.runs / job.name, json.loads((args.runs / job.name / "metrics.json").read_text()))
+                      for job in runs] for name, runs in jobs.items()}
     text = table(results)
-    replace_all([(args.table, lambda tmp: tmp.write_text(text, encoding="utf-8"))])
-    print(text)
+    path = args.table or args.runs / "table.md"
+    replace_all([(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))])
+    print(text + f"(written to {path})")
     if args.ship:
         ship(results)
     return 0

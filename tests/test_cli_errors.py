@@ -24,7 +24,7 @@ def no_work(monkeypatch):
 
     for target in ("shoulder_bench.eval.evaluate.evaluate", "shoulder_bench.eval.leaderboard.evaluate",
                    "shoulder_bench.eval.render._controller", "shoulder_bench.eval.bench.batched_rate",
-                   "shoulder_bench.eval.experiment.train"):
+                   "shoulder_bench.eval.experiment.train", "shoulder_bench.eval.sweep.sweep"):
         monkeypatch.setattr(target, forbidden)
 
 
@@ -210,6 +210,8 @@ def test_reproduce_bad_arguments_fail_before_training(tmp_path, capsys, no_work)
         "--frames-scale 0.0: give a positive number (e.g. 0.01 to smoke-test)")
     assert _error(capsys, ["reproduce", "--table", str(tmp_path), "--runs", str(tmp_path / "r")]) == (
         f"--table {tmp_path} is a directory; give a file name such as {tmp_path / 'table.md'}")
+    assert _error(capsys, ["reproduce", "--workers", "0", "--runs", str(tmp_path / "r")]) == (
+        "--workers 0: give at least 1")
     assert list(tmp_path.iterdir()) == []
 
 

@@ -172,3 +172,20 @@ def test_a_concurrent_run_into_a_locked_folder_fails_with_the_holder(tmp_path):
         lock.release()
     assert records[0]["status"] == "failed"
     assert f"in use by pid {os.getpid()}" in (out / "abduction_ssp/ppo/0/train.log").read_text()
+
+
+@pytest.mark.slow
+def test_reproduce_trains_its_runs_as_a_sweep_and_rebuilds_the_table_from_them(tmp_path, capsys):
+    """`reproduce` trains every experiment x seed as a sweep run (own process, resumable), then tables the run
+    folders' metrics; run again, it trains nothing and writes the same table."""
+    runs, table = tmp_path / "runs", tmp_path / "t.md"
+    args = ["reproduce", "--experiments", "dqn_ssp", "--seeds", "0", "1", "--frames-scale", "0.002", "--runs",
+            str(runs), "--table", str(table), "--workers", "2"]
+    assert main(args) == 0
+    first = table.read_text()
+    maes = [json.loads((runs / f"abduction_ssp_discrete/dqn/{s}/metrics.json").read_text())["mae_deg"] for s in (0, 1)]
+    row = next(line for line in first.splitlines() if line.startswith("| dqn_ssp"))
+    assert "2 seeds" in row and f"{sum(maes) / 2:.2f} ±" in row
+    assert "trained 2 runs" in capsys.readouterr().out
+    assert main(args) == 0 and table.read_text() == first
+    assert "trained" not in capsys.readouterr().out  # nothing retrained
