@@ -46,9 +46,12 @@ def run(args) -> int:
     check_args(args)
     jobs = {name: [Job(task, algo, seed, max(1, int(frames * args.frames_scale)), EVAL_EVERY) for seed in args.seeds]
             for name, (task, algo, frames, _) in ((n, EXPERIMENTS[n]) for n in args.experiments)}
+    # one run per core: a run is mostly one core's work (PPO's update, DQN's gradient steps); on 2 cores 2 at once took
+    # 533 s against 741 s one at a time, the same results (docs/reproduction.md "Wall time")
+    workers = args.workers or os.cpu_count() or 1
     t0 = time.perf_counter()
     try:
-        records = sweep([job for runs in jobs.values() for job in runs], args.runs, args.workers)
+        records = sweep([job for runs in jobs.values() for job in runs], args.runs, workers)
     except KeyboardInterrupt:
         print("reproduce interrupted; run the same command again to continue (finished runs are skipped, "
               "interrupted ones resume)", file=sys.stderr)
@@ -59,7 +62,7 @@ def run(args) -> int:
     trained = [r["wall_s"] for r in records if r["status"] == "done"]
     if trained:
         print(f"trained {len(trained)} runs in {time.perf_counter() - t0:.0f} s end to end ({sum(trained):.0f} s "
-              f"of runs, {args.workers or 'default'} worker(s))")
+              f"of runs, {workers} at once)")
     results = {name: [(job.seed, args.runs / job.name, json.loads((args.runs / job.name / "metrics.json").read_text()))
                       for job in runs] for name, runs in jobs.items()}
     text = table(results)

@@ -14,6 +14,6 @@ def add_parser(sub) -> None:
     p.add_argument("--frames-scale", type=float, default=1.0, help="multiply every budget (e.g. 0.01 to smoke-test)")
     p.add_argument("--table", type=Path, default=None, help="where the table goes (default: RUNS/table.md)")
     p.add_argument("--workers", type=int, default=None,
-                   help="runs at once, each in its own process (default: one per two cores)")
+                   help="runs at once, each in its own process (default: one per core)")
     p.add_argument("--ship", action="store_true", help="copy the best seed of each into the pretrained agents")
     p.set_defaults(func=run)
