@@ -209,7 +209,7 @@ def test_the_grid_checks_cells_are_held_out_poses_with_their_grid_corners():
     assert (np.abs(fine_centres - centres) == step / 4).all()  # inside its cell, a quarter step off its centre
 
 
-def test_the_grid_check_scores_the_scheme_against_a_fresh_solve(pose, monkeypatch):
+def test_the_grid_check_scores_the_scheme_against_a_fresh_solve(pose, monkeypatch, tmp_path):
     """A torque field that is trilinear in the pose and linear in a is reproduced exactly by the scheme (0 %); one
     that is not is scored by how far it is off, in % of the peak."""
     from shoulder_bench.authoring.fem import footprint_grid
@@ -232,3 +232,9 @@ def test_the_grid_check_scores_the_scheme_against_a_fresh_solve(pose, monkeypatc
             assert r["checked"] == 4 and (worst < 1e-9) == expect_zero, worst
             assert [c["tension_a1_pct_f0"] for c in r["cell_records"]] == [50.0] * 4
     assert r["within_tol"] is (worst <= 2.0)
+    # `run` writes the scores (JSON) and the solves they came from (npz), for other schemes to be scored on
+    footprint_grid.run(("tmi",), out=tmp_path, n=4, refine=2)
+    text = json.loads((tmp_path / "footprint_grid_refine2.json").read_text())
+    assert text["refine"] == 2 and "solves" not in text["tendons"][0]
+    solves = np.load(tmp_path / "footprint_grid_refine2.npz")
+    assert solves["tmi/centre_torque_Nm"].shape == (4, 3, 3) and solves["tmi/corner_index"].shape == (4, 8)

@@ -28,6 +28,7 @@ from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem.footprint_activation import solve_levels
 from shoulder_bench.authoring.fem.footprint_report import each_tendon, output_stem, write_json
 from shoulder_bench.authoring.fem.verify_full import HELD_OUT_TOL, held_out_poses
+from shoulder_bench.muscle import replacing
 
 CELLS = 24  # held-out poses (cells) per tendon
 SEED = 0
@@ -55,8 +56,9 @@ def check(tendon: str, n: int = CELLS, resolution: str = "full", surface: str = 
     """The errors of the module docstring for `tendon` over `n` held-out cells (NaN where a solve failed)."""
     pose = pose or full_arm.Pose()
     centres, corners, index = cells(n, refine=refine)
-    grid = solve_levels(tendon, corners, resolution, surface, pose, progress, levels=(0.0, 1.0))["torque_Nm"]
+    corner_solves = solve_levels(tendon, corners, resolution, surface, pose, progress, levels=(0.0, 1.0))
     mid = solve_levels(tendon, centres, resolution, surface, pose, progress, levels=(0.0, 0.5, 1.0))
+    grid = corner_solves["torque_Nm"]
     peak = np.nanmax(np.abs(grid), axis=(0, 1))
     corner_mean = grid[index].mean(axis=1)  # (n, 2, 3): trilinear at the centres, a = 0 and 1
     tau = mid["torque_Nm"]
@@ -75,6 +77,11 @@ def check(tendon: str, n: int = CELLS, resolution: str = "full", surface: str = 
                             "scheme_a05_pct": pct["scheme_a05"][i].tolist() if ok[i] else None,
                             "tension_a1_pct_f0": _finite(tension[i]), "contact_a1_N": _finite(contact[i])}
                            for i in range(n)]
+    # the solves themselves (not in the JSON): for other schemes to be scored on them later (`run` writes them)
+    out["solves"] = {"corners_deg": corners, "corner_index": index, "centres_deg": centres,
+                     **{f"corner_{k}": corner_solves[k] for k in ("torque_Nm", "tension_N", "contact_N")},
+                     **{f"centre_{k}": mid[k] for k in ("torque_Nm", "tension_N", "contact_N")},
+                     "f0_N": mid["f0_N"]}
     return out
 
 
@@ -101,7 +108,11 @@ def run(tendons, resolution: str = "full", out: Path | None = None, surface: str
     if out is not None:
         stem = output_stem(out, "footprint_grid", surface)
         path = (stem.with_name(f"{stem.name}_refine{refine}") if refine > 1 else stem).with_suffix(".json")
+        solves = {r["tendon"]: r.pop("solves") for r in rows}
         write_json(path, {"resolution": resolution, "surface": surface, "seed": SEED, "refine": refine,
                           "step_deg": step, "tendons": rows})
-        print(f"wrote {path}")
+        with replacing(path.with_suffix(".npz")) as tmp:  # corner levels a = 0, 1; centre levels a = 0, 0.5, 1
+            with open(tmp, "wb") as f:
+                np.savez_compressed(f, **{f"{t}/{k}": v for t, d in solves.items() for k, v in d.items()})
+        print(f"wrote {path} and {path.with_suffix('.npz').name}")
     return rows
