@@ -231,6 +231,7 @@ def test_the_grid_check_scores_the_scheme_against_a_fresh_solve(pose, monkeypatc
             worst = max(r["scheme_a05"].values())
             assert r["checked"] == 4 and (worst < 1e-9) == expect_zero, worst
             assert [c["tension_a1_pct_f0"] for c in r["cell_records"]] == [50.0] * 4
+            assert (max(r["arm_a05"].values()) < 1e-9) == expect_zero  # the tension is exact and constant here
     assert r["within_tol"] is (worst <= 2.0)
     # `run` writes the scores (JSON) and the solves they came from (npz), for other schemes to be scored on
     footprint_grid.run(("tmi",), out=tmp_path, n=4, refine=2)
@@ -238,3 +239,29 @@ def test_the_grid_check_scores_the_scheme_against_a_fresh_solve(pose, monkeypatc
     assert text["refine"] == 2 and "solves" not in text["tendons"][0]
     solves = np.load(tmp_path / "footprint_grid_refine2.npz")
     assert solves["tmi/centre_torque_Nm"].shape == (4, 3, 3) and solves["tmi/corner_index"].shape == (4, 8)
+
+
+def test_the_line_of_action_score_leaves_out_the_force():
+    """A sheet whose tension bends across a cell while its line of action stays put: the torque table misses, the
+    line of action alone does not; bend the line of action instead and the second score sees it."""
+    from shoulder_bench.authoring.fem.footprint_grid import cells, scores
+
+    centres, corners, index = cells(6)
+    r0 = np.array([0.02, -0.01, 0.015])
+
+    def solves(tension, arm):
+        corner_t = np.stack([tension(corners, a) for a in (0.0, 1.0)], 1)
+        centre_t = np.stack([tension(centres, a) for a in (0.0, 0.5, 1.0)], 1)
+        corner_tau = np.stack([tension(corners, a)[:, None] * arm(corners) for a in (0.0, 1.0)], 1)
+        centre_tau = np.stack([tension(centres, a)[:, None] * arm(centres) for a in (0.0, 0.5, 1.0)], 1)
+        return {"corner_index": index, "corner_torque_Nm": corner_tau, "corner_tension_N": corner_t,
+                "centre_torque_Nm": centre_tau, "centre_tension_N": centre_t}
+
+    def bent_tension(p, a):
+        return 100 * (0.2 + a) * (1 + 0.5 * np.cos(np.radians(p).sum(1) * 6))
+
+    pct, _ = scores(solves(bent_tension, lambda p: np.tile(r0, (len(p), 1))))
+    assert pct["scheme_a05"].max() > 1.0 and pct["arm_a05"].max() < 1e-9
+    pct, _ = scores(solves(lambda p, a: 100 * (0.2 + a) * np.ones(len(p)),
+                           lambda p: r0 * (1 + 0.5 * np.cos(np.radians(p)[:, :1] * 6))))
+    assert pct["arm_a05"].max() > 1.0

@@ -16,6 +16,13 @@ K^3 sub-cells (drawn with the same seed), so the refined check looks at the same
 errors can be set beside the tasks' grid's cell by cell (how the error falls with the step, and where it stays).
 Every cell's record (centre, the scheme's error, the sheet's tension and contact force at the centre at a = 1) is
 written, to say where the largest errors lie: at slack, at contact onset, or neither.
+
+A second score, `arm_a05`, asks how much of the error is the force's and how much the line of action's: the same
+interpolated torque rescaled to the sheet's own tension at the centre (T_centre tau_table / T_table, T_table the
+tension interpolated as the torque is). It is what a table of the line of action beside an exact force law would
+give, the scheme of the length-keyed tables with the FEM's line of action in place of the MJCF path's. The solves
+are written beside the JSON (npz); `python -m shoulder_bench.authoring.fem.footprint_grid FILE.npz ...` scores them
+again.
 """
 from __future__ import annotations
 
@@ -58,13 +65,10 @@ def check(tendon: str, n: int = CELLS, resolution: str = "full", surface: str = 
     centres, corners, index = cells(n, refine=refine)
     corner_solves = solve_levels(tendon, corners, resolution, surface, pose, progress, levels=(0.0, 1.0))
     mid = solve_levels(tendon, centres, resolution, surface, pose, progress, levels=(0.0, 0.5, 1.0))
-    grid = corner_solves["torque_Nm"]
-    peak = np.nanmax(np.abs(grid), axis=(0, 1))
-    corner_mean = grid[index].mean(axis=1)  # (n, 2, 3): trilinear at the centres, a = 0 and 1
-    tau = mid["torque_Nm"]
-    pct = {"pose_a1": np.abs(corner_mean[:, 1] - tau[:, 2]) / peak * 100,
-           "pose_a0": np.abs(corner_mean[:, 0] - tau[:, 0]) / peak * 100,
-           "scheme_a05": np.abs(corner_mean.mean(axis=1) - tau[:, 1]) / peak * 100}
+    solves = {"corners_deg": corners, "corner_index": index, "centres_deg": centres,
+              **{f"corner_{k}": corner_solves[k] for k in ("torque_Nm", "tension_N", "contact_N")},
+              **{f"centre_{k}": mid[k] for k in ("torque_Nm", "tension_N", "contact_N")}, "f0_N": mid["f0_N"]}
+    pct, peak = scores(solves)
     ok = np.isfinite(sum(v.sum(axis=1) for v in pct.values()))
     out = {"tendon": tendon, "cells": n, "refine": refine, "checked": int(ok.sum()),
            "peak_torque_Nm": dict(zip(full_arm.COORDINATES, peak.tolist()))}
@@ -74,19 +78,40 @@ def check(tendon: str, n: int = CELLS, resolution: str = "full", surface: str = 
     out["within_tol"] = bool(worst is not None and max(worst.values()) <= HELD_OUT_TOL * 100)
     tension, contact = mid["tension_N"][:, 2] / mid["f0_N"] * 100, mid["contact_N"][:, 2]
     out["cell_records"] = [{"centre_deg": centres[i].tolist(),
-                            "scheme_a05_pct": pct["scheme_a05"][i].tolist() if ok[i] else None,
+                            **{f"{k}_pct": pct[k][i].tolist() if ok[i] else None for k in ("scheme_a05", "arm_a05")},
                             "tension_a1_pct_f0": _finite(tension[i]), "contact_a1_N": _finite(contact[i])}
                            for i in range(n)]
-    # the solves themselves (not in the JSON): for other schemes to be scored on them later (`run` writes them)
-    out["solves"] = {"corners_deg": corners, "corner_index": index, "centres_deg": centres,
-                     **{f"corner_{k}": corner_solves[k] for k in ("torque_Nm", "tension_N", "contact_N")},
-                     **{f"centre_{k}": mid[k] for k in ("torque_Nm", "tension_N", "contact_N")},
-                     "f0_N": mid["f0_N"]}
+    out["solves"] = solves  # not in the JSON: `run` writes them to the npz
     return out
+
+
+def scores(s: dict) -> tuple[dict, np.ndarray]:
+    """({score: (n, 3) % of the peak}, peak (3,) N m) from a cell check's solves (`check`'s "solves", or the npz):
+    the module docstring's pose_a1, pose_a0, scheme_a05 and arm_a05."""
+    grid, tension = s["corner_torque_Nm"][s["corner_index"]], s["corner_tension_N"][s["corner_index"]]
+    tau, t_centre = s["centre_torque_Nm"], s["centre_tension_N"]
+    peak = np.nanmax(np.abs(s["corner_torque_Nm"]), axis=(0, 1))
+    corner_mean, tension_mean = grid.mean(axis=1), tension.mean(axis=1)  # (n, 2, 3), (n, 2): a = 0 and 1
+    table, t_table = corner_mean.mean(axis=1), tension_mean.mean(axis=1)  # at a = 0.5
+    with np.errstate(invalid="ignore", divide="ignore"):
+        arm = np.where(t_table[:, None] > 0, t_centre[:, 1, None] * table / t_table[:, None], 0.0)
+    pct = {"pose_a1": np.abs(corner_mean[:, 1] - tau[:, 2]), "pose_a0": np.abs(corner_mean[:, 0] - tau[:, 0]),
+           "scheme_a05": np.abs(table - tau[:, 1]), "arm_a05": np.abs(arm - tau[:, 1])}
+    return {k: v / peak * 100 for k, v in pct.items()}, peak
 
 
 def _finite(x) -> float | None:
     return float(x) if np.isfinite(x) else None
+
+
+def rescore(path) -> None:
+    """Print the largest of every score per tendon from a --grid run's npz."""
+    data = np.load(path)
+    for tendon in dict.fromkeys(k.split("/")[0] for k in data.files):
+        pct, _ = scores({k.split("/")[1]: data[k] for k in data.files if k.startswith(tendon + "/")})
+        ok = np.isfinite(sum(v.sum(axis=1) for v in pct.values()))
+        print(f"{tendon:<6} {ok.sum():>2}/{len(ok)}  " + "   ".join(
+            f"{k} " + " ".join(f"{x:6.2f}" for x in v[ok].max(axis=0)) for k, v in pct.items()))
 
 
 def run(tendons, resolution: str = "full", out: Path | None = None, surface: str = "wrap", n: int = CELLS,
@@ -99,10 +124,11 @@ def run(tendons, resolution: str = "full", out: Path | None = None, surface: str
     labels = [full_arm.COORDINATE_LABELS[c] for c in full_arm.COORDINATES]
     print(f"largest error over the held-out cells, % of the tendon's peak |torque| (bound {HELD_OUT_TOL * 100:g} %); "
           f"{resolution} sheets, contact: {surface}; grid step {step} deg; columns: " + ", ".join(labels))
-    print("tendon  cells   pose interpolation, a = 1   pose interpolation, a = 0   scheme at a = 0.5 (pose + a)")
+    print("tendon  cells   pose interpolation, a = 1   pose interpolation, a = 0   scheme at a = 0.5 (pose + a)   "
+          "line of action only, a = 0.5")
     for r in rows:
         cols = ["   ".join("   -  " if r[k] is None else f"{r[k][c]:6.2f}" for c in full_arm.COORDINATES)
-                for k in ("pose_a1", "pose_a0", "scheme_a05")]
+                for k in ("pose_a1", "pose_a0", "scheme_a05", "arm_a05")]
         print(f"{r['tendon']:<6} {r['checked']:>2}/{r['cells']}   " + "     ".join(cols)
               + ("" if r["within_tol"] else "   over the bound"))
     if out is not None:
@@ -116,3 +142,11 @@ def run(tendons, resolution: str = "full", out: Path | None = None, surface: str
                 np.savez_compressed(f, **{f"{t}/{k}": v for t, d in solves.items() for k, v in d.items()})
         print(f"wrote {path} and {path.with_suffix('.npz').name}")
     return rows
+
+
+if __name__ == "__main__":  # python -m shoulder_bench.authoring.fem.footprint_grid FILE.npz ...
+    import sys
+
+    for name in sys.argv[1:]:
+        print(name)
+        rescore(name)
