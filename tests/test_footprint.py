@@ -265,3 +265,24 @@ def test_the_line_of_action_score_leaves_out_the_force():
     pct, _ = scores(solves(lambda p, a: 100 * (0.2 + a) * np.ones(len(p)),
                            lambda p: r0 * (1 + 0.5 * np.cos(np.radians(p)[:, :1] * 6))))
     assert pct["arm_a05"].max() > 1.0
+
+
+def test_rescoring_saved_solves_reports_how_the_error_falls_with_the_step(tmp_path, capsys):
+    """Solves of a field quadratic in the pose, saved as two --grid runs (tasks' grid, twice as fine): trilinear
+    interpolation's error at a cell's centre is h^2 f''/8 per coordinate, so halving the step quarters it."""
+    from shoulder_bench.authoring.fem.footprint_grid import cells, rescore
+
+    def field(p, a):
+        x = np.radians(p)
+        return (0.5 + a) * np.stack([x[:, 0] ** 2 + x[:, 1], x[:, 1] ** 2, x[:, 2] ** 2 - x[:, 0]], 1)
+
+    for refine in (1, 2):
+        centres, corners, index = cells(6, refine=refine)
+        d = {"corner_index": index, "corner_tension_N": np.ones((len(corners), 2)),
+             "centre_tension_N": np.ones((6, 3)),
+             "corner_torque_Nm": np.stack([field(corners, a) for a in (0.0, 1.0)], 1),
+             "centre_torque_Nm": np.stack([field(centres, a) for a in (0.0, 0.5, 1.0)], 1)}
+        np.savez(tmp_path / f"k{refine}.npz", **{f"tmi/{k}": v for k, v in d.items()})
+    rescore(tmp_path / "k1.npz", tmp_path / "k2.npz")
+    ratio = capsys.readouterr().out.splitlines()[-1]
+    assert "pose_a1 0.25, pose_a0 0.25, scheme_a05 0.25" in ratio, ratio

@@ -104,14 +104,25 @@ def _finite(x) -> float | None:
     return float(x) if np.isfinite(x) else None
 
 
-def rescore(path) -> None:
-    """Print the largest of every score per tendon from a --grid run's npz."""
-    data = np.load(path)
-    for tendon in dict.fromkeys(k.split("/")[0] for k in data.files):
-        pct, _ = scores({k.split("/")[1]: data[k] for k in data.files if k.startswith(tendon + "/")})
-        ok = np.isfinite(sum(v.sum(axis=1) for v in pct.values()))
-        print(f"{tendon:<6} {ok.sum():>2}/{len(ok)}  " + "   ".join(
-            f"{k} " + " ".join(f"{x:6.2f}" for x in v[ok].max(axis=0)) for k, v in pct.items()))
+def rescore(*paths) -> None:
+    """Print the largest of every score per tendon from --grid runs' npz files; given several (the same cells at
+    refinements K1, K2, ...: `refine`), also each tendon's per-cell error (N m, the largest over the coordinates)
+    from one file to the next: the median ratio, over the cells solved in both, says how the error falls with the
+    step (1/4 when it falls as the step squared, as trilinear interpolation of a smooth field does)."""
+    worst = {}
+    for path in paths:
+        data = np.load(path)
+        print(path)
+        for tendon in dict.fromkeys(k.split("/")[0] for k in data.files):
+            pct, peak = scores({k.split("/")[1]: data[k] for k in data.files if k.startswith(tendon + "/")})
+            ok = np.isfinite(sum(v.sum(axis=1) for v in pct.values()))
+            print(f"{tendon:<6} {ok.sum():>2}/{len(ok)}  " + "   ".join(
+                f"{k} " + " ".join(f"{x:6.2f}" for x in v[ok].max(axis=0)) for k, v in pct.items()))
+            worst.setdefault(tendon, []).append({k: (v * peak / 100).max(axis=1) for k, v in pct.items()})  # N m
+    for tendon, runs in worst.items():
+        for a, b in zip(runs, runs[1:]):
+            print(f"{tendon:<6} per cell, this file's error / the previous file's (median over the cells solved in "
+                  f"both): " + ", ".join(f"{k} {np.nanmedian(b[k] / a[k]):.2f}" for k in a))
 
 
 def run(tendons, resolution: str = "full", out: Path | None = None, surface: str = "wrap", n: int = CELLS,
@@ -147,6 +158,4 @@ def run(tendons, resolution: str = "full", out: Path | None = None, surface: str
 if __name__ == "__main__":  # python -m shoulder_bench.authoring.fem.footprint_grid FILE.npz ...
     import sys
 
-    for name in sys.argv[1:]:
-        print(name)
-        rescore(name)
+    rescore(*sys.argv[1:])
