@@ -286,3 +286,14 @@ def test_rescoring_saved_solves_reports_how_the_error_falls_with_the_step(tmp_pa
     rescore(tmp_path / "k1.npz", tmp_path / "k2.npz")
     ratio = capsys.readouterr().out.splitlines()[-1]
     assert "pose_a1 0.25, pose_a0 0.25, scheme_a05 0.25" in ratio, ratio
+
+
+def test_solving_along_a_line_finds_the_equilibria_solving_from_the_reference_finds(pose):
+    """solve_path continues each pose from the one before; for a contact-free sheet the equilibrium is unique, so it
+    must be solve()'s (from the reference) to the solver's tolerance."""
+    sheet = F.FootprintSheet("tmi", "coarse", pose=pose)
+    line = np.array([[30.0, e, -15.0] for e in (0.0, 20.0, 40.0, 60.0)])
+    along = sheet.solve_path(line)
+    for q, r in zip(line, along):
+        np.testing.assert_allclose(r["torque_Nm"], sheet.solve(q)["torque_Nm"], atol=2e-3 * abs(r["torque_Nm"]).max())
+    np.testing.assert_array_equal([r["pose_deg"] for r in along], line)

@@ -201,7 +201,37 @@ class FootprintSheet:
                 x, _ = pb.step(x, (0.0, a0), (0.0, a))
                 a0 = a
             self._at_reference[activation] = x
-        x, at = self._at_reference[activation], start
+        return self.reduce(self._walk(self._at_reference[activation], start, target, activation), activation)
+
+    def solve_path(self, poses_deg, activation: float = 1.0) -> list[dict | None]:
+        """`solve` at each of `poses_deg` in turn, each continued from the one before (the first from the reference
+        pose) instead of from the reference: along a grid line a step of one grid cell instead of a walk across the
+        pose space. Where that finds no equilibrium the pose is solved from the reference; None where neither does.
+        Equilibria can depend on the way (contact): `benchmarks/footprint_sweep.py` compares the two."""
+        out, x, at = [], None, None
+        for pose in np.asarray(poses_deg, float):
+            try:
+                if x is None:
+                    raise NoConvergence("no previous pose")
+                x = self._walk(x, at, pose, activation)
+                res = self.reduce(x, activation)
+            except NoConvergence:
+                try:
+                    res = self.solve(pose, activation)
+                except NoConvergence:
+                    out.append(None)
+                    x = at = None
+                    continue
+                x = res["nodes"]
+            at = pose
+            out.append(res)
+        return out
+
+    def _walk(self, x: np.ndarray, start, target, activation: float) -> np.ndarray:
+        """The nodes continued from equilibrium `x` at pose `start` to pose `target` in steps of at most
+        POSE_STEP_DEG per coordinate (halved where Newton fails), each predicted by the change of the draped shape."""
+        pb, start, target = self.problem, np.asarray(start, float), np.asarray(target, float)
+        at = start
         n = max(1, int(np.ceil(np.max(np.abs(target - start)) / POSE_STEP_DEG - 1e-9)))
         frac, done = 1.0 / n, 0.0
         while done < 1.0 - 1e-12:
@@ -219,7 +249,7 @@ class FootprintSheet:
                                         f"from {tuple(at)}") from None
                 continue
             x, at, done = x_new, nxt, done + f
-        return self.reduce(x, activation)
+        return x
 
     def _place(self, pose_deg):
         self._set(pose_deg)
