@@ -2,13 +2,15 @@
 pose from the reference (issue 12 §2; docs/fem.md "Footprint sheets: the pose grid").
 
     .venv/bin/python benchmarks/footprint_sweep.py [--tendon ssp ...] [--coarse] [--refine 2] [--lines 3]
+                                                   [--activation A]
 
 For each tendon, `--lines` grid lines of the tasks' pose grid made `--refine` times finer (elevation 0-140 deg at
-plane and rotation drawn from the grid with a fixed seed), solved at a = 1 two ways, one after the other in one
-process: every pose from the reference pose (`FootprintSheet.solve`, what `fem footprint` does) and along the line,
-each pose continued from the one before (`FootprintSheet.solve_path`). Prints seconds per pose each way, their ratio,
-and the largest difference of the torque vector between the two in % of the tendon's peak |torque| on the lines
-(a difference means the two ways found different equilibria: the sheet's contact depends on the way there).
+plane and rotation drawn from the grid with a fixed seed), solved at a = `--activation` (default 1) two ways, one
+after the other in one process: every pose from the reference pose (`FootprintSheet.solve`, what `fem footprint`
+does) and along the line, each pose continued from the one before (`FootprintSheet.solve_path`). Prints seconds per
+pose each way, their ratio, and the largest difference of the torque vector between the two in % of the tendon's
+peak |torque| on the lines (a difference means the two ways found different equilibria: the sheet's contact depends
+on the way there).
 """
 from __future__ import annotations
 
@@ -43,26 +45,28 @@ def main(argv=None) -> int:
     p.add_argument("--coarse", action="store_true", help="coarse sheets (15 x 5 nodes)")
     p.add_argument("--refine", type=int, default=2, help="the tasks' grid step divided by this")
     p.add_argument("--lines", type=int, default=3)
+    p.add_argument("--activation", type=float, default=1.0)
     args = p.parse_args(argv)
     pose = Pose()
     resolution = "coarse" if args.coarse else "full"
-    print(f"{resolution} sheets, a = 1, elevation lines of the tasks' grid / {args.refine}")
+    level = args.activation
+    print(f"{resolution} sheets, a = {level:g}, elevation lines of the tasks' grid / {args.refine}")
     print("tendon  poses  from reference (s/pose)  along the line (s/pose)  ratio  solved (ref / line)  "
           "largest difference (% of peak): plane elevation rotation")
     for tendon in args.tendon:
         sheet = FootprintSheet(tendon, resolution, pose=pose)
-        sheet.solve(lines(args.refine, 1)[0][0])  # the reference equilibrium, built once, outside the timings
+        sheet.solve(lines(args.refine, 1)[0][0], level)  # the reference equilibrium, built once, outside the timings
         ref, path, t_ref, t_path = [], [], 0.0, 0.0
         for line in lines(args.refine, args.lines):
             t = time.perf_counter()
             for q in line:
                 try:
-                    ref.append(sheet.solve(q)["torque_Nm"])
+                    ref.append(sheet.solve(q, level)["torque_Nm"])
                 except NoConvergence:
                     ref.append(None)
             t_ref += time.perf_counter() - t
             t = time.perf_counter()
-            path += [None if r is None else r["torque_Nm"] for r in sheet.solve_path(line)]
+            path += [None if r is None else r["torque_Nm"] for r in sheet.solve_path(line, level)]
             t_path += time.perf_counter() - t
         both = [(a, b) for a, b in zip(ref, path) if a is not None and b is not None]
         a, b = np.array([x for x, _ in both]), np.array([y for _, y in both])
