@@ -20,7 +20,9 @@ import time
 import numpy as np
 
 
-def lines(refine: int, count: int, seed: int = 0) -> list[np.ndarray]:
+def lines(refine: int, count: int, seed: int = 0, chosen=None) -> list[np.ndarray]:
+    """`count` elevation lines of the grid `refine` times finer than the tasks' at (plane, rotation) drawn with
+    `seed`, or at the (plane, rotation) pairs `chosen`."""
     from shoulder_bench import full_arm
 
     step = {c: full_arm.POSE_STEP_DEG[c] / refine for c in full_arm.COORDINATES}
@@ -28,9 +30,9 @@ def lines(refine: int, count: int, seed: int = 0) -> list[np.ndarray]:
     rng = np.random.default_rng(seed)
     planes, rotations = np.unique(grid[:, 0]), np.unique(grid[:, 2])
     elevations = np.unique(grid[:, 1])
+    pairs = chosen or [(rng.choice(planes), rng.choice(rotations)) for _ in range(count)]
     out = []
-    for _ in range(count):
-        plane, rotation = rng.choice(planes), rng.choice(rotations)
+    for plane, rotation in pairs:
         out.append(np.stack([np.full_like(elevations, plane), elevations, np.full_like(elevations, rotation)], 1))
     return out
 
@@ -46,6 +48,9 @@ def main(argv=None) -> int:
     p.add_argument("--refine", type=int, default=2, help="the tasks' grid step divided by this")
     p.add_argument("--lines", type=int, default=3)
     p.add_argument("--activation", type=float, default=1.0)
+    p.add_argument("--line", nargs=2, type=float, action="append", metavar=("PLANE", "ROTATION"),
+                   help="this elevation line instead of drawn ones (repeatable); prints every pose where the two "
+                   "ways differ by more than 1 %% of peak")
     args = p.parse_args(argv)
     pose = Pose()
     resolution = "coarse" if args.coarse else "full"
@@ -56,18 +61,20 @@ def main(argv=None) -> int:
     for tendon in args.tendon:
         sheet = FootprintSheet(tendon, resolution, pose=pose)
         sheet.solve(lines(args.refine, 1)[0][0], level)  # the reference equilibrium, built once, outside the timings
-        ref, path, t_ref, t_path = [], [], 0.0, 0.0
-        for line in lines(args.refine, args.lines):
+        ref_res, path_res, t_ref, t_path, poses = [], [], 0.0, 0.0, []
+        for line in lines(args.refine, args.lines, chosen=args.line):
             t = time.perf_counter()
             for q in line:
                 try:
-                    ref.append(sheet.solve(q, level)["torque_Nm"])
+                    ref_res.append(sheet.solve(q, level))
                 except NoConvergence:
-                    ref.append(None)
+                    ref_res.append(None)
             t_ref += time.perf_counter() - t
             t = time.perf_counter()
-            path += [None if r is None else r["torque_Nm"] for r in sheet.solve_path(line, level)]
+            path_res += sheet.solve_path(line, level)
             t_path += time.perf_counter() - t
+            poses += list(line)
+        ref, path = ([None if r is None else r["torque_Nm"] for r in res] for res in (ref_res, path_res))
         both = [(a, b) for a, b in zip(ref, path) if a is not None and b is not None]
         a, b = np.array([x for x, _ in both]), np.array([y for _, y in both])
         peak = np.abs(a).max(axis=0)
@@ -76,6 +83,12 @@ def main(argv=None) -> int:
         print(f"{tendon:<6} {n:>5}  {t_ref / n:>22.2f}  {t_path / n:>23.2f}  {t_ref / t_path:5.1f}  "
               f"{sum(x is not None for x in ref):>8} / {sum(x is not None for x in path):<8}  "
               + " ".join(f"{x:9.2f}" for x in diff))
+        if args.line:  # every pose where the two ways found different equilibria
+            for q, x, y in zip(poses, ref_res, path_res):
+                if x is not None and y is not None and (np.abs(x["torque_Nm"] - y["torque_Nm"]) / peak).max() > 0.01:
+                    print(f"   ({q[0]:g}, {q[1]:g}, {q[2]:g}) deg: from the reference {np.round(x['torque_Nm'], 2)} "
+                          f"N m, contact {x['contact_N']:.0f} N; along the line {np.round(y['torque_Nm'], 2)} N m, "
+                          f"contact {y['contact_N']:.0f} N")
     return 0
 
 
