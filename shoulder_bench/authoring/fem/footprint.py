@@ -210,21 +210,19 @@ class FootprintSheet:
         Equilibria can depend on the way (contact): `benchmarks/footprint_sweep.py` compares the two."""
         out, x, at = [], None, None
         for pose in np.asarray(poses_deg, float):
-            try:
-                if x is None:
-                    raise NoConvergence("no previous pose")
-                x = self._walk(x, at, pose, activation)
-                res = self.reduce(x, activation)
-            except NoConvergence:
+            res = None
+            if x is not None:  # continued from the pose before
+                try:
+                    res = self.reduce(self._walk(x, at, pose, activation), activation)
+                except NoConvergence:
+                    pass
+            if res is None:  # the first pose, or no way from the one before: from the reference
                 try:
                     res = self.solve(pose, activation)
                 except NoConvergence:
-                    out.append(None)
-                    x = at = None
-                    continue
-                x = res["nodes"]
-            at = pose
+                    pass
             out.append(res)
+            x, at = (None, None) if res is None else (res["nodes"], pose)
         return out
 
     def _walk(self, x: np.ndarray, start, target, activation: float) -> np.ndarray:

@@ -69,7 +69,7 @@ def check(tendon: str, n: int = CELLS, resolution: str = "full", surface: str = 
               **{f"corner_{k}": corner_solves[k] for k in ("torque_Nm", "tension_N", "contact_N")},
               **{f"centre_{k}": mid[k] for k in ("torque_Nm", "tension_N", "contact_N")}, "f0_N": mid["f0_N"]}
     pct, peak = scores(solves)
-    ok = np.isfinite(sum(v.sum(axis=1) for v in pct.values()))
+    ok = solved(pct)
     out = {"tendon": tendon, "cells": n, "refine": refine, "checked": int(ok.sum()),
            "peak_torque_Nm": dict(zip(full_arm.COORDINATES, peak.tolist()))}
     for key, v in pct.items():
@@ -100,6 +100,11 @@ def scores(s: dict) -> tuple[dict, np.ndarray]:
     return {k: v / peak * 100 for k, v in pct.items()}, peak
 
 
+def solved(pct: dict) -> np.ndarray:
+    """(n,) the cells every score could be computed for (every solve they need found an equilibrium)."""
+    return np.isfinite(sum(v.sum(axis=1) for v in pct.values()))
+
+
 def _finite(x) -> float | None:
     return float(x) if np.isfinite(x) else None
 
@@ -115,7 +120,7 @@ def rescore(*paths) -> None:
         print(path)
         for tendon in dict.fromkeys(k.split("/")[0] for k in data.files):
             pct, peak = scores({k.split("/")[1]: data[k] for k in data.files if k.startswith(tendon + "/")})
-            ok = np.isfinite(sum(v.sum(axis=1) for v in pct.values()))
+            ok = solved(pct)
             print(f"{tendon:<6} {ok.sum():>2}/{len(ok)}  " + "   ".join(
                 f"{k} " + " ".join(f"{x:6.2f}" for x in v[ok].max(axis=0)) for k, v in pct.items()))
             worst.setdefault(tendon, []).append({k: (v * peak / 100).max(axis=1) for k, v in pct.items()})  # N m
