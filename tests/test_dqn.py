@@ -133,3 +133,26 @@ def test_exported_policy_matches_greedy_act(task, branching):
     torch.jit.save(scripted, buf)
     buf.seek(0)
     assert np.array_equal(torch.jit.load(buf)(obs).numpy(), greedy)
+
+
+def test_the_error_features_are_each_coordinates_own():
+    """The normaliser's tracking errors read the observation's blocks, one column per coordinate: on the 3-DOF task
+    (angles, rates, targets, target rates, activations, each 3 wide) target - angle of plane, elevation, rotation;
+    on a 1-DOF task the single pair, as before."""
+    from shoulder_bench.train.dqn import ObsNormalizer
+
+    for task, dofs in (("abduction_4m_discrete", 1), ("track_3dof_discrete", 3)):
+        env = shoulder_bench.make_vec(task, 2, seed=0, nthread=1)
+        assert getattr(env.task, "dofs", 1) == dofs
+        obs = env.get_observations()["policy"]
+        obs = obs + torch.arange(obs.shape[1], dtype=obs.dtype) ** 2  # every column different
+        out = ObsNormalizer(obs.shape[1], dofs)(obs)
+        d = dofs
+        assert out.shape[1] == obs.shape[1] + 2 * d
+        torch.testing.assert_close(out[:, -2 * d:-d], (obs[:, 2 * d:3 * d] - obs[:, 0:d]) / 5.0)
+        torch.testing.assert_close(out[:, -d:], (obs[:, 3 * d:4 * d] - obs[:, d:2 * d]) / 10.0)
+    cfg = DQNConfig(branching=True, **TINY)
+    agent = DQNAgent(cfg, obs.shape[1], env.n, dofs=3)
+    assert agent.q.trunk[0].in_features == obs.shape[1] + 6
+    again = DQNAgent.from_state_dict(agent.state_dict())  # the coordinates travel with the checkpoint
+    assert again.dofs == 3 and torch.equal(again.q(obs), agent.q(obs))

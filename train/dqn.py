@@ -23,7 +23,8 @@ a*_d = argmax_a Q_d^online(s', a); the Huber loss is averaged over branches. (BD
 Observations are degrees, deg/s and activations. `ObsNormalizer`, inside the network (so the exported policy takes raw
 observations), standardises each column with the mean/std of the warm-up data (random actions, the first
 `learning_starts` frames), then frozen, and appends the tracking errors (target - angle) / 5 deg and
-(target velocity - velocity) / 10 deg/s, which the policy needs at a ~1 deg resolution that standardised angles blur.
+(target velocity - velocity) / 10 deg/s of each coordinate (one on the 1-DOF tasks; plane, elevation and rotation on
+the 3-DOF ones), which the policy needs at a ~1 deg resolution that standardised angles blur.
 
 Episode ends under auto-reset: when a copy's episode ends the VecEnv returns the NEXT episode's first observation, and
 the true final observation is lost. A crash (done and not a time-out) is terminal: stored with terminated=True, its
@@ -114,10 +115,13 @@ def config_for(task: str, **overrides) -> DQNConfig:
 
 # --- networks ---------------------------------------------------------------------------------------------------------
 class ObsNormalizer(nn.Module):
-    """Raw observation (B, 4+n) -> standardised columns plus two tracking-error features (B, 6+n)."""
+    """Raw observation (B, 4d+n) -> standardised columns plus the tracking errors (B, 6d+n); d = `dofs`, the task's
+    coordinates (1, or 3 on the full shoulder: angles, rates, targets, target rates, activations, each block d wide,
+    as `ppo.ErrorFeatures` reads them)."""
 
-    def __init__(self, obs_dim: int):
+    def __init__(self, obs_dim: int, dofs: int = 1):
         super().__init__()
+        self.dofs = int(dofs)
         self.register_buffer("mean", torch.zeros(obs_dim))
         self.register_buffer("std", torch.ones(obs_dim))
 
@@ -128,19 +132,20 @@ class ObsNormalizer(nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         # columns: angle, angular velocity, target angle, target velocity, activations (protocol.OBSERVATION_KEYS)
-        err = (x[:, 2:3] - x[:, 0:1]) / 5.0
-        err_vel = (x[:, 3:4] - x[:, 1:2]) / 10.0
+        d = self.dofs
+        err = (x[:, 2 * d:3 * d] - x[:, 0:d]) / 5.0
+        err_vel = (x[:, 3 * d:4 * d] - x[:, d:2 * d]) / 10.0
         return torch.cat([(x - self.mean) / self.std, err, err_vel], dim=1)
 
 
 class QNet(nn.Module):
     """Observation -> Q (B, n_branches, LEVELS): ReLU trunk, one linear head per branch, optional dueling value."""
 
-    def __init__(self, obs_dim: int, n_branches: int, hidden: tuple[int, ...], dueling: bool):
+    def __init__(self, obs_dim: int, n_branches: int, hidden: tuple[int, ...], dueling: bool, dofs: int = 1):
         super().__init__()
         self.n, self.levels = n_branches, LEVELS
-        self.norm = ObsNormalizer(obs_dim)
-        layers, width = [], obs_dim + 2
+        self.norm = ObsNormalizer(obs_dim, dofs)
+        layers, width = [], obs_dim + 2 * dofs
         for h in hidden:
             layers += [nn.Linear(width, h), nn.ReLU()]
             width = h
@@ -217,11 +222,11 @@ class ReplayBuffer:
 
 # --- agent ------------------------------------------------------------------------------------------------------------
 class DQNAgent:
-    def __init__(self, cfg: DQNConfig, obs_dim: int, n_branches: int):
-        self.cfg, self.obs_dim, self.n = cfg, int(obs_dim), int(n_branches)
+    def __init__(self, cfg: DQNConfig, obs_dim: int, n_branches: int, dofs: int = 1):
+        self.cfg, self.obs_dim, self.n, self.dofs = cfg, int(obs_dim), int(n_branches), int(dofs)
         with torch.random.fork_rng():  # seeded initialisation without touching the caller's global RNG
             torch.manual_seed(cfg.seed)
-            self.q = QNet(self.obs_dim, self.n, tuple(cfg.hidden), dueling=cfg.branching)
+            self.q = QNet(self.obs_dim, self.n, tuple(cfg.hidden), dueling=cfg.branching, dofs=self.dofs)
         self.q_target = copy.deepcopy(self.q).requires_grad_(False)
         self.optim = torch.optim.Adam(self.q.parameters(), lr=cfg.lr, fused=True)
         self.buffer = ReplayBuffer(cfg.buffer_size, self.obs_dim, self.n)
@@ -335,7 +340,7 @@ class DQNAgent:
 
     # --- checkpoints -------------------------------------------------------------------------------------------------
     def state_dict(self) -> dict:
-        return {"config": asdict(self.cfg), "obs_dim": self.obs_dim, "n_branches": self.n,
+        return {"config": asdict(self.cfg), "obs_dim": self.obs_dim, "n_branches": self.n, "dofs": self.dofs,
                 "q": self.q.state_dict(), "q_target": self.q_target.state_dict(), "optim": self.optim.state_dict(),
                 "buffer": self.buffer.state_dict() if self.cfg.save_buffer else None,
                 "counters": {"frames": self.frames, "vec_steps": self.vec_steps, "grad_steps": self.grad_steps,
@@ -362,7 +367,8 @@ class DQNAgent:
     @classmethod
     def from_state_dict(cls, d: dict) -> DQNAgent:
         cfg = d["config"]
-        agent = cls(DQNConfig(**{**cfg, "hidden": tuple(cfg["hidden"])}), d["obs_dim"], d["n_branches"])
+        agent = cls(DQNConfig(**{**cfg, "hidden": tuple(cfg["hidden"])}), d["obs_dim"], d["n_branches"],
+                    d.get("dofs", 1))
         agent.load_state_dict(d)
         return agent
 
@@ -375,7 +381,8 @@ def train(run, venv, cfg: DQNConfig, frames: int, evaluate_every, on_eval,
     fine-tune starts from (`plan.init_source`): the networks (online, target; and the optimiser from a checkpoint)
     with their fitted normaliser; the replay buffer, counters and exploration schedule start anew."""
     n = venv.num_actions
-    agent = DQNAgent(cfg, obs_dim=venv.get_observations()["policy"].shape[1], n_branches=n)
+    agent = DQNAgent(cfg, obs_dim=venv.get_observations()["policy"].shape[1], n_branches=n,
+                     dofs=getattr(venv.task, "dofs", 1))
     if run.checkpoint is not None:
         try:
             agent.load_state_dict(run.checkpoint["state"]["agent"])
