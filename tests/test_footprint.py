@@ -297,3 +297,63 @@ def test_solving_along_a_line_finds_the_equilibria_solving_from_the_reference_fi
     for q, r in zip(line, along):
         np.testing.assert_allclose(r["torque_Nm"], sheet.solve(q)["torque_Nm"], atol=2e-3 * abs(r["torque_Nm"]).max())
     np.testing.assert_array_equal([r["pose_deg"] for r in along], line)
+
+
+def test_the_taut_band_is_stress_free_at_each_pose_and_needs_no_walk(pose):
+    """rest="pose": at the reference pose the taut band is the walked sheet (the same stress-free state); elsewhere
+    the band is built where it is solved, so a pose's equilibrium does not depend on what was solved before, and where
+    the walked sheet goes slack (ssp at plane 45, elevation 120, rotation 45: 16 % of F0 on the coarse sheet) the band
+    still pulls and has a line of action."""
+    walk = F.FootprintSheet("ssp", "coarse", pose=pose)
+    band = F.FootprintSheet("ssp", "coarse", pose=pose, rest="pose")
+    ref = walk.solve(F.REFERENCE_POSE_DEG)
+    np.testing.assert_allclose(band.solve(F.REFERENCE_POSE_DEG)["torque_Nm"], ref["torque_Nm"], rtol=1e-9, atol=1e-9)
+    slack = (45.0, 120.0, 45.0)
+    alone = band.solve(slack)
+    band.solve((0.0, 0.0, 0.0))  # something else in between
+    again = band.solve(slack)
+    np.testing.assert_array_equal(again["torque_Nm"], alone["torque_Nm"])
+    assert walk.solve(slack)["tension_N"] < 0.2 * walk.f0 < 0.5 * walk.f0 < alone["tension_N"]
+    assert band.solve_path([slack])[0]["torque_Nm"] == pytest.approx(alone["torque_Nm"])
+    with pytest.raises(ValueError, match="stress-free"):
+        F.FootprintSheet("ssp", "coarse", pose=pose, rest="slack")
+
+
+@pytest.mark.parametrize("tendon", ["ssp", "isp"])
+def test_a_narrow_taut_band_gives_back_the_mjcf_moment_arms(tendon, pose):
+    """A 1 mm taut band pulls along MuJoCo's line wherever it is solved, the walked sheet's slack poses included."""
+    band = F.FootprintSheet(tendon, "coarse", width_m=0.001, pose=pose, rest="pose")
+    for p in (POSES[1], (45.0, 120.0, 45.0), (90.0, 0.0, 60.0)):
+        s = band.solve(p)
+        np.testing.assert_allclose(s["moment_arm_m"], band.mjcf_moment_arm(p), atol=1e-3)
+        assert s["tension_N"] > 0.5 * band.f0
+
+
+def test_the_taut_bands_grid_check_scores_its_moment_arms(pose, monkeypatch, tmp_path):
+    """check_taut tables the band's moment arms: a field trilinear in the pose scores 0, a bent one does not; the run
+    writes footprint_grid_taut.json and its npz; --activation with the taut band is refused."""
+    from shoulder_bench.authoring.fem import footprint_grid
+
+    class Band:
+        f0 = 100.0
+
+        def __init__(self, *args, bend=0.0, **kw):
+            self.bend = bend
+
+        def solve(self, p):
+            q = np.radians(np.asarray(p, float))
+            arm = 0.01 * np.array([1 + q[0] + 2 * q[1], q[1] - q[2] + q[0] * q[2], 3 + q[2]])
+            arm = arm + self.bend * np.cos(4 * q)
+            return {"moment_arm_m": arm, "tension_N": 80.0, "contact_N": 0.0}
+
+    for bend, zero in ((0.0, True), (0.002, False)):
+        monkeypatch.setattr(footprint_grid, "FootprintSheet", lambda *a, bend=bend, **k: Band(bend=bend))
+        r = footprint_grid.check_taut("tmi", 4, pose=pose)
+        assert r["checked"] == 4 and (max(r["arm_a1"].values()) < 1e-9) == zero
+        assert [c["tension_a1_pct_f0"] for c in r["cell_records"]] == [80.0] * 4
+    footprint_grid.run(("tmi",), out=tmp_path, n=4, rest="pose")
+    text = json.loads((tmp_path / "footprint_grid_taut.json").read_text())
+    assert text["rest"] == "pose" and text["tendons"][0]["arm_a1"] is not None
+    assert np.load(tmp_path / "footprint_grid_taut.npz")["tmi/centre_arm_m"].shape == (4, 3)
+    with pytest.raises(SystemExit, match="--activation goes with --rest reference"):
+        fem_main(["footprint", "--activation", "--rest", "pose", "--tendon", "tmi"])

@@ -94,7 +94,12 @@ def _footprint(args) -> int:
     if args.refine < 1:
         raise SystemExit(f"shoulder-bench fem footprint: error: --refine must be a whole number >= 1, "
                          f"not {args.refine}")
+    if args.activation and args.rest != "reference":
+        raise SystemExit("shoulder-bench fem footprint: error: --activation goes with --rest reference (a taut band "
+                         "relaxed to a = 0 pulls nothing: its line of action is not defined there)")
     extra = {"refine": args.refine} if args.grid else {}
+    if not args.activation:
+        extra["rest"] = args.rest
     if args.activation:  # the line of action and linearity over activations (footprint_activation)
         from shoulder_bench.authoring.fem.footprint_activation import run
     if args.grid:  # a torque table on the tasks' pose grid against held-out re-solves (footprint_grid)
@@ -144,6 +149,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     f.add_argument("--refine", type=int, default=1, metavar="K",
                    help="with --grid: the same check on a grid K times finer in every coordinate, in sub-cells of "
                    "the same cells (footprint_grid_refineK.json)")
+    f.add_argument("--rest", choices=("reference", "pose"), default="reference",
+                   help="the sheet's stress-free state: its shape at the reference pose, carried to each pose by a "
+                   "walk (default), or its shape at each pose it is solved at (the taut band: every fibre at its "
+                   "optimal length; *_taut.json); with the report and --grid")
     f.set_defaults(func=_footprint)
     c = sub.add_parser("convergence", help="mesh-refinement study of the torque at a few points (slow)")
     c.add_argument("--muscle", type=_muscle, default="ssp")

@@ -21,8 +21,14 @@ wrap's side site); then the solve decides where the sheet lies: the contact with
 parent's, as the MJCF has them: MuJoCo wraps spheres and cylinders only), or the humeral head (HUMERAL_HEAD, a
 sphere fitted to the parent's humerus surface; for ssp and isp: the ssc and tmi insertion sites lie inside it).
 
-Reference (stress-free, fibres at optimal length): the sheet at REFERENCE_POSE_DEG. The sheet is all fibre (no
-tendon in series): these solves are about the line of action, which barely depends on how the force is made.
+Reference (stress-free, fibres at optimal length): the sheet at REFERENCE_POSE_DEG, carried to other poses by a walk
+(rest="reference"). The sheet is all fibre (no tendon in series): these solves are about the line of action, which
+barely depends on how the force is made. So the fibres lengthen and shorten with the pose as the whole free part
+does, where in the muscle the belly and the tendon beyond the free part share that change: at some poses the sheet
+goes slack and its line of action means nothing. rest="pose" (the taut band): the sheet stress-free in its draped
+shape at the pose it is solved at, every fibre at its optimal length, then activated there: the line of action of
+the free part pulled taut, defined at every pose and reached without a walk (one equilibrium per pose, whatever was
+solved before), for a force law that takes the force from elsewhere (the length-keyed tables).
 
 Reduction. At equilibrium the sheet pulls on the proximal bone at its origin nodes, on the humerus at its insertion
 nodes and pushes the contact surface's body at the nodes in contact. Each force acts at its node; its generalised
@@ -57,6 +63,10 @@ TENDONS = tuple(FOOTPRINT_M)
 # residual 0.89 mm). Cf. the 24 mm mean radius of curvature of Iannotti et al. 1992 (J Bone Joint Surg Am 74:491).
 HUMERAL_HEAD = {"centre_m": (0.00042, -0.00053, 0.0019), "radius_m": 0.02432}
 SURFACES = ("wrap", "head")  # contact with the MJCF's wrap object, or with the humeral head sphere
+# The sheet's stress-free state: its draped shape at REFERENCE_POSE_DEG, carried to every pose by a walk ("reference":
+# the fibres lengthen and shorten with the pose, and go slack), or its draped shape at the pose it is solved at
+# ("pose": every fibre at its optimal length at every pose, a taut band whose line of action is defined everywhere)
+RESTS = ("reference", "pose")
 REFERENCE_POSE_DEG = (30.0, 45.0, 0.0)  # plane, elevation, rotation: mid-range of the tasks' pose space
 RESOLUTION = {"full": (31, 9), "coarse": (15, 5)}  # nodes along the fibres, across
 ACTIVATION_STEPS = (0.25, 0.5, 0.75, 1.0)  # fractions of the activation, ramped at the reference pose
@@ -68,11 +78,14 @@ class FootprintSheet:
     """One tendon's footprint sheet on the full model: build it at the reference pose, solve it at any pose."""
 
     def __init__(self, tendon: str, resolution: str | tuple[int, int] = "coarse", width_m: float | None = None,
-                 pose: full_arm.Pose | None = None, material: Material | None = None, surface: str = "wrap"):
+                 pose: full_arm.Pose | None = None, material: Material | None = None, surface: str = "wrap",
+                 rest: str = "reference"):
         if tendon not in FOOTPRINT_M and width_m is None:
             raise ValueError(f"no footprint for {tendon!r}; tendons with one: {', '.join(TENDONS)}")
         if surface not in SURFACES:
             raise ValueError(f"unknown contact surface {surface!r}; choose from {', '.join(SURFACES)}")
+        if rest not in RESTS:
+            raise ValueError(f"unknown stress-free state {rest!r}; choose from {', '.join(RESTS)}")
         self.pose = pose or full_arm.Pose()
         self.m, self.d = self.pose.m, mujoco.MjData(self.pose.m)
         self.part = free_part(self.m, tendon)
@@ -93,7 +106,14 @@ class FootprintSheet:
                                  "the head for it")
         n = np.cross(p - c, q - c)
         self.across = {k: self._to_body(k, n / np.linalg.norm(n), vector=True) for k in ("origin", "insertion")}
-        X = self.draped()
+        self.f0, self.material, self.rest = _f0(tendon), material or Material(), rest
+        self._build(self.draped())
+        self.reference_length = self.central_length()
+        self._at_reference = {}  # activation -> the solution at the reference pose
+
+    def _build(self, X: np.ndarray) -> None:
+        """The sheet's problem with its stress-free shape `X` (nodes at the current pose) and its attachment lines
+        fixed to their bones where X has them."""
         tri = grid_triangles(self.ns, self.nt)
         st = np.stack(np.meshgrid(np.linspace(0, 1, self.ns), np.linspace(-0.5, 0.5, self.nt), indexing="ij"), -1)
         st = st.reshape(-1, 2)
@@ -101,16 +121,12 @@ class FootprintSheet:
         dst = np.stack([st[tri[:, 1]] - st[tri[:, 0]], st[tri[:, 2]] - st[tri[:, 0]]], axis=2)
         fibres = (ds @ np.linalg.inv(dst))[:, :, 0]
         fibres /= np.linalg.norm(fibres, axis=1, keepdims=True)
-        f0 = _f0(tendon)
         idx = np.arange(self.ns * self.nt).reshape(self.ns, self.nt)
-        shell = {"muscle": np.array(tendon), "nodes": X, "triangles": tri, "fibres": fibres,
-                 "thickness": f0 / Blemker().sigma_max / self.width, "origin_nodes": idx[0],
+        shell = {"muscle": np.array(self.part.tendon), "nodes": X, "triangles": tri, "fibres": fibres,
+                 "thickness": self.f0 / Blemker().sigma_max / self.width, "origin_nodes": idx[0],
                  "insertion_nodes": idx[-1], "theta_ref_deg": np.array(0.0)}
-        self.problem = _Problem(shell, material or Material(), SETTINGS, f0)
+        self.problem = _Problem(shell, self.material, SETTINGS, self.f0)
         self.reference = {k: (self._frame(k), X[self.problem.nodes_of(k)]) for k in ("origin", "insertion")}
-        self.f0 = f0
-        self.reference_length = self.central_length()
-        self._at_reference = {}  # activation -> the solution at the reference pose
 
     # -- kinematics -------------------------------------------------------------------------------------------------
     def _set(self, pose_deg):
@@ -191,6 +207,8 @@ class FootprintSheet:
         Continuation: the activation is ramped to `activation` at the reference pose; then the pose moves from there
         in steps of at most POSE_STEP_DEG per coordinate (halved where Newton fails), each predicted by the change of
         the draped shape."""
+        if self.rest == "pose":
+            return self._solve_taut(pose_deg, activation)
         pb = self.problem
         target = np.asarray(pose_deg, float)
         start = np.asarray(REFERENCE_POSE_DEG, float)
@@ -203,15 +221,29 @@ class FootprintSheet:
             self._at_reference[activation] = x
         return self.reduce(self._walk(self._at_reference[activation], start, target, activation), activation)
 
+    def _solve_taut(self, pose_deg, activation: float) -> dict:
+        """`solve` with rest="pose": the sheet built stress-free in its draped shape at `pose_deg`, the activation
+        ramped there (ACTIVATION_STEPS): no walk, so the equilibrium found depends on the pose alone."""
+        self._set(pose_deg)
+        self._build(self.draped())
+        self._place(pose_deg)
+        pb = self.problem
+        x, a0 = pb.predict(pb.X, 0.0, 0.0), 0.0
+        for a in [s * activation for s in ACTIVATION_STEPS]:
+            x, _ = pb.step(x, (0.0, a0), (0.0, a))
+            a0 = a
+        return self.reduce(x, activation)
+
     def solve_path(self, poses_deg, activation: float = 1.0) -> list[dict | None]:
         """`solve` at each of `poses_deg` in turn, each continued from the one before (the first from the reference
         pose) instead of from the reference: along a grid line a step of one grid cell instead of a walk across the
         pose space. Where that finds no equilibrium the pose is solved from the reference; None where neither does.
-        Equilibria can depend on the way (contact): `benchmarks/footprint_sweep.py` compares the two."""
+        Equilibria can depend on the way (contact): `benchmarks/footprint_sweep.py` compares the two. With
+        rest="pose" there is no way: each pose is solved on its own, as `solve` does."""
         out, x, at = [], None, None
         for pose in np.asarray(poses_deg, float):
             res = None
-            if x is not None:  # continued from the pose before
+            if x is not None and self.rest == "reference":  # continued from the pose before
                 try:
                     res = self.reduce(self._walk(x, at, pose, activation), activation)
                 except NoConvergence:
@@ -308,13 +340,13 @@ class _Problem(MuscleProblem):
 
 
 def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None = None, progress=None,
-            surface: str = "wrap", pose: full_arm.Pose | None = None) -> dict:
+            surface: str = "wrap", pose: full_arm.Pose | None = None, rest: str = "reference") -> dict:
     """FEM vs MJCF moment arms of `tendon` at `poses_deg` (P, 3): arrays (P, 3) in m (NaN where the sheet found no
     equilibrium: `converged`), the tensions and contact forces (N), the central fibre's stretch (its initial shape's
     length over the reference's). progress: called after each pose. surface: the sheet's contact surface
-    (`SURFACES`). pose: the model posed (default: the task model, compiled anew). A ValueError if the tendon has no
-    sheet (`FootprintSheet`)."""
-    sheet = FootprintSheet(tendon, resolution, width_m, pose=pose, surface=surface)
+    (`SURFACES`). pose: the model posed (default: the task model, compiled anew). rest: the sheet's stress-free
+    state (`RESTS`). A ValueError if the tendon has no sheet (`FootprintSheet`)."""
+    sheet = FootprintSheet(tendon, resolution, width_m, pose=pose, surface=surface, rest=rest)
     poses = np.atleast_2d(np.asarray(poses_deg, float))
     out = {"fem_m": np.full((len(poses), 3), np.nan), "mjcf_m": np.zeros((len(poses), 3)),
            "tension_N": np.full(len(poses), np.nan), "contact_N": np.full(len(poses), np.nan),
@@ -333,4 +365,4 @@ def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None =
         if progress is not None:
             progress()
     return {"tendon": tendon, "poses_deg": poses, "width_m": sheet.width, "resolution": (sheet.ns, sheet.nt),
-            "surface": surface, **out}
+            "surface": surface, "rest": rest, **out}

@@ -23,6 +23,10 @@ tension interpolated as the torque is). It is what a table of the line of action
 give, the scheme of the length-keyed tables with the FEM's line of action in place of the MJCF path's. The solves
 are written beside the JSON (npz); `python -m shoulder_bench.authoring.fem.footprint_grid FILE.npz ...` scores them
 again.
+
+With rest="pose" (`check_taut`, `--rest pose`) the sheet is the taut band (`footprint.RESTS`): what is tabled is its
+line of action alone, the moment arms (torque / tension) at a = 1, for a force law that gives the force; corners and
+centres are solved at a = 1, each on its own, and the score is the arm's pose interpolation (arm_a1).
 """
 from __future__ import annotations
 
@@ -32,8 +36,10 @@ from pathlib import Path
 import numpy as np
 
 from shoulder_bench import full_arm
+from shoulder_bench.authoring.fem.footprint import FootprintSheet
 from shoulder_bench.authoring.fem.footprint_activation import solve_levels
 from shoulder_bench.authoring.fem.footprint_report import each_tendon, output_stem, write_json
+from shoulder_bench.authoring.fem.solver import NoConvergence
 from shoulder_bench.authoring.fem.verify_full import HELD_OUT_TOL, held_out_poses
 from shoulder_bench.muscle import replacing
 
@@ -85,9 +91,47 @@ def check(tendon: str, n: int = CELLS, resolution: str = "full", surface: str = 
     return out
 
 
+def check_taut(tendon: str, n: int = CELLS, resolution: str = "full", surface: str = "wrap", pose=None,
+               progress=None, refine: int = 1) -> dict:
+    """The taut band's check (rest="pose"): its moment arms (torque / tension at a = 1) tabled on the grid, trilinear
+    in the pose, against the band re-solved at the held-out centres; errors in % of the tendon's peak |moment arm|
+    over the solved corners, per coordinate (score "arm_a1"). Every pose is solved on its own (no walk)."""
+    sheet = FootprintSheet(tendon, resolution, pose=pose or full_arm.Pose(), surface=surface, rest="pose")
+    centres, corners, index = cells(n, refine=refine)
+    solves = {"corners_deg": corners, "corner_index": index, "centres_deg": centres, "f0_N": np.array(sheet.f0)}
+    for name, poses in (("corner", corners), ("centre", centres)):
+        arm, tension, contact = np.full((len(poses), 3), np.nan), np.full(len(poses), np.nan), np.full(len(poses),
+                                                                                                    np.nan)
+        for k, p in enumerate(poses):
+            try:
+                r = sheet.solve(p)
+                arm[k], tension[k], contact[k] = r["moment_arm_m"], r["tension_N"], r["contact_N"]
+            except NoConvergence:
+                pass
+            if progress is not None:
+                progress()
+        solves.update({f"{name}_arm_m": arm, f"{name}_tension_N": tension, f"{name}_contact_N": contact})
+    pct, peak = scores(solves)
+    ok = solved(pct)
+    worst = dict(zip(full_arm.COORDINATES, pct["arm_a1"][ok].max(axis=0).tolist())) if ok.any() else None
+    return {"tendon": tendon, "cells": n, "refine": refine, "checked": int(ok.sum()), "rest": "pose",
+            "peak_moment_arm_mm": dict(zip(full_arm.COORDINATES, (peak * 1e3).tolist())), "arm_a1": worst,
+            "within_tol": bool(worst is not None and max(worst.values()) <= HELD_OUT_TOL * 100),
+            "cell_records": [{"centre_deg": centres[i].tolist(),
+                              "arm_a1_pct": pct["arm_a1"][i].tolist() if ok[i] else None,
+                              "tension_a1_pct_f0": _finite(solves["centre_tension_N"][i] / sheet.f0 * 100),
+                              "contact_a1_N": _finite(solves["centre_contact_N"][i])} for i in range(n)],
+            "solves": solves}
+
+
 def scores(s: dict) -> tuple[dict, np.ndarray]:
-    """({score: (n, 3) % of the peak}, peak (3,) N m) from a cell check's solves (`check`'s "solves", or the npz):
-    the module docstring's pose_a1, pose_a0, scheme_a05 and arm_a05."""
+    """({score: (n, 3) % of the peak}, peak (3,)) from a cell check's solves (`check`'s or `check_taut`'s "solves",
+    or the npz): the module docstring's pose_a1, pose_a0, scheme_a05 and arm_a05 (peak in N m), or the taut band's
+    arm_a1 (peak |moment arm| in m)."""
+    if "corner_arm_m" in s:  # the taut band's
+        arm = s["corner_arm_m"][s["corner_index"]]  # (n, 8, 3)
+        peak = np.nanmax(np.abs(s["corner_arm_m"]), axis=0)
+        return {"arm_a1": np.abs(arm.mean(axis=1) - s["centre_arm_m"]) / peak * 100}, peak
     grid, tension = s["corner_torque_Nm"][s["corner_index"]], s["corner_tension_N"][s["corner_index"]]
     tau, t_centre = s["centre_torque_Nm"], s["centre_tension_N"]
     peak = np.nanmax(np.abs(s["corner_torque_Nm"]), axis=(0, 1))
@@ -131,29 +175,33 @@ def rescore(*paths) -> None:
 
 
 def run(tendons, resolution: str = "full", out: Path | None = None, surface: str = "wrap", n: int = CELLS,
-        refine: int = 1):
-    """`check` for every tendon; prints a table; with `out`, writes footprint_grid[_head][_refineK].json there."""
+        refine: int = 1, rest: str = "reference"):
+    """`check` (or with rest="pose" `check_taut`) for every tendon; prints a table; with `out`, writes
+    footprint_grid[_taut][_head][_refineK].json there."""
     pose = full_arm.Pose()
     step = {c: full_arm.POSE_STEP_DEG[c] / refine for c in full_arm.COORDINATES}
+    one = check if rest == "reference" else check_taut
     rows = each_tendon(tendons, len(cells(n, refine=refine)[1]) + n, "footprint sheets, grid check",
-                       lambda t, progress: check(t, n, resolution, surface, pose, progress, refine))
+                       lambda t, progress: one(t, n, resolution, surface, pose, progress, refine))
     labels = [full_arm.COORDINATE_LABELS[c] for c in full_arm.COORDINATES]
-    print(f"largest error over the held-out cells, % of the tendon's peak |torque| (bound {HELD_OUT_TOL * 100:g} %); "
+    what = "|torque|" if rest == "reference" else "|moment arm| (the taut band's, a = 1)"
+    print(f"largest error over the held-out cells, % of the tendon's peak {what} (bound {HELD_OUT_TOL * 100:g} %); "
           f"{resolution} sheets, contact: {surface}; grid step {step} deg; columns: " + ", ".join(labels))
+    keys = ("pose_a1", "pose_a0", "scheme_a05", "arm_a05") if rest == "reference" else ("arm_a1",)
     print("tendon  cells   pose interpolation, a = 1   pose interpolation, a = 0   scheme at a = 0.5 (pose + a)   "
-          "line of action only, a = 0.5")
+          "line of action only, a = 0.5" if rest == "reference" else "tendon  cells   moment arm, pose interpolation")
     for r in rows:
         cols = ["   ".join("   -  " if r[k] is None else f"{r[k][c]:6.2f}" for c in full_arm.COORDINATES)
-                for k in ("pose_a1", "pose_a0", "scheme_a05", "arm_a05")]
+                for k in keys]
         print(f"{r['tendon']:<6} {r['checked']:>2}/{r['cells']}   " + "     ".join(cols)
               + ("" if r["within_tol"] else "   over the bound"))
     if out is not None:
-        stem = output_stem(out, "footprint_grid", surface)
+        stem = output_stem(out, "footprint_grid", surface, rest)
         path = (stem.with_name(f"{stem.name}_refine{refine}") if refine > 1 else stem).with_suffix(".json")
         solves = {r["tendon"]: r.pop("solves") for r in rows}
-        write_json(path, {"resolution": resolution, "surface": surface, "seed": SEED, "refine": refine,
+        write_json(path, {"resolution": resolution, "surface": surface, "rest": rest, "seed": SEED, "refine": refine,
                           "step_deg": step, "tendons": rows})
-        with replacing(path.with_suffix(".npz")) as tmp:  # corner levels a = 0, 1; centre levels a = 0, 0.5, 1
+        with replacing(path.with_suffix(".npz")) as tmp:  # levels: corners a = 0, 1, centres 0, 0.5, 1 (taut: a = 1)
             with open(tmp, "wb") as f:
                 np.savez_compressed(f, **{f"{t}/{k}": v for t, d in solves.items() for k, v in d.items()})
         print(f"wrote {path} and {path.with_suffix('.npz').name}")

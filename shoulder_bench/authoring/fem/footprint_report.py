@@ -74,7 +74,8 @@ def figure(results: list[dict], path: Path, surface: str = "wrap") -> None:
     for ax in axes[-1]:
         ax.set_xlabel(f"elevation (°), plane {FIGURE_PLANE_DEG:.0f}°")
     on = "the MJCF wrap objects" if surface == "wrap" else "the humeral head sphere"
-    fig.suptitle(f"Footprint sheets (solved line of action, contact with {on}) vs the MJCF tendon paths", fontsize=10)
+    what = "taut bands" if results and results[0].get("rest") == "pose" else "sheets"
+    fig.suptitle(f"Footprint {what} (solved line of action, contact with {on}) vs the MJCF tendon paths", fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -95,10 +96,12 @@ def each_tendon(tendons, poses_each: int, desc: str, solve) -> list:
     return results
 
 
-def output_stem(out: Path, name: str, surface: str) -> Path:
-    """`out`/name (wrap contact) or `out`/name_SURFACE, `out` created: where a footprint command writes."""
+def output_stem(out: Path, name: str, surface: str, rest: str = "reference") -> Path:
+    """`out`/name[_taut][_SURFACE] (_taut: the taut band, rest="pose"; _SURFACE unless the wrap contact), `out`
+    created: where a footprint command writes."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    name = name if rest == "reference" else f"{name}_taut"
     return out / (name if surface == "wrap" else f"{name}_{surface}")
 
 
@@ -107,13 +110,14 @@ def write_json(path: Path, data: dict) -> None:
         tmp.write_text(json.dumps(data, indent=1))
 
 
-def run(tendons=TENDONS, resolution: str = "full", out: Path | None = None, surface: str = "wrap") -> list[dict]:
+def run(tendons=TENDONS, resolution: str = "full", out: Path | None = None, surface: str = "wrap",
+        rest: str = "reference") -> list[dict]:
     """Solve every tendon at every report pose with contact on `surface` (`footprint.SURFACES`; a tendon whose
-    sheet cannot touch it is skipped, saying why); print the table; with `out`, write footprint[_head].json and
-    footprint[_head]_moment_arms.png there."""
+    sheet cannot touch it is skipped, saying why) from the stress-free state `rest` (`footprint.RESTS`); print the
+    table; with `out`, write footprint[_taut][_head].json and footprint[_taut][_head]_moment_arms.png there."""
     poses, pose = report_poses(), Pose()  # one compiled model for every tendon
     results = each_tendon(tendons, len(poses), "footprint sheets", lambda t, progress: compare(
-        t, poses, resolution, progress=progress, surface=surface, pose=pose))
+        t, poses, resolution, progress=progress, surface=surface, pose=pose, rest=rest))
     rows = [summary(r) for r in results]
     print("|FEM - MJCF| moment arm, RMS / largest (the MJCF arm's RMS), mm")
     print("tendon  width  stretch    poses         plane               elevation           rotation         contact")
@@ -129,13 +133,14 @@ def run(tendons=TENDONS, resolution: str = "full", out: Path | None = None, surf
             tail = f"median {s['contact_N_median']:.0f} N" if subset == "all" else ""
             print(f"{head}  {subset:>6} {count:>2}/{s['poses']}  {cells}  {tail}")
     if out is not None:
-        stem = output_stem(out, "footprint", surface)
-        data = {"resolution": resolution, "surface": surface, "summary": rows,
+        stem = output_stem(out, "footprint", surface, rest)
+        data = {"resolution": resolution, "surface": surface, "rest": rest, "summary": rows,
                 "poses": [{"tendon": r["tendon"], "pose_deg": p.tolist(), "converged": bool(ok),
                            "stretch": float(lam), "fem_mm": (f * 1e3).tolist() if ok else None,
-                           "mjcf_mm": (j * 1e3).tolist()}
-                          for r in results for p, f, j, ok, lam in zip(r["poses_deg"], r["fem_m"], r["mjcf_m"],
-                                                                        r["converged"], r["stretch"])]}
+                           "mjcf_mm": (j * 1e3).tolist(), "tension_N": float(ten) if ok else None}
+                          for r in results for p, f, j, ok, lam, ten in zip(r["poses_deg"], r["fem_m"], r["mjcf_m"],
+                                                                             r["converged"], r["stretch"],
+                                                                             r["tension_N"])]}
         write_json(stem.with_name(stem.name + ".json"), data)
         with replacing(stem.with_name(stem.name + "_moment_arms.png")) as tmp:
             figure(results, tmp, surface)
