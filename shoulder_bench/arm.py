@@ -195,8 +195,24 @@ class Arm(LockedPath):
         self.geometry = geometry
         lo, hi = RANGE_DEG
         self._grid = np.radians(np.arange(lo - VALID_MARGIN_DEG, hi + VALID_MARGIN_DEG + 1e-9, FINE_STEP_DEG))
-        self._gravity = np.array([super(Arm, self).gravity_torque(q) for q in self._grid])
-        self._inertia = np.array([super(Arm, self).inertia(q) for q in self._grid])
+        self._gravity, self._inertia = self._reduced(self._grid)
+
+    def _reduced(self, grid) -> tuple[np.ndarray, np.ndarray]:
+        """`LockedPath.gravity_torque` and `LockedPath.inertia` at every elevation of `grid` (rad), each point posed
+        once for both (the same arithmetic as the two methods)."""
+        m, d, hum = self.m, self.d, self.hum
+        gravity, inertia = np.empty(len(grid)), np.empty(len(grid))
+        jacp, full = np.zeros((3, m.nv)), np.zeros((m.nv, m.nv))
+        weight = m.body_mass[hum] * m.opt.gravity[2]
+        for k, q in enumerate(grid):
+            self.pose(q)
+            s = self.slopes(q)
+            mujoco.mj_jacBodyCom(m, d, jacp, None, hum)
+            gravity[k] = float(weight * (jacp[2] @ s))
+            mujoco.mj_crb(m, d)
+            mujoco.mj_fullM(m, d, full)
+            inertia[k] = float(s @ full @ s)
+        return gravity, inertia
 
     def gravity_torque(self, elevation_rad):
         """Gravity torque (N m, + elevates) at elevations (rad), array in, array out."""
