@@ -330,8 +330,9 @@ def test_a_narrow_taut_band_gives_back_the_mjcf_moment_arms(tendon, pose):
 
 
 def test_the_taut_bands_grid_check_scores_its_moment_arms(pose, monkeypatch, tmp_path):
-    """check_taut tables the band's moment arms: a field trilinear in the pose scores 0, a bent one does not; the run
-    writes footprint_grid_taut.json and its npz; --activation with the taut band is refused."""
+    """check_taut tables the band's moment arms, the MJCF arms and the band's correction to them: a band that is the
+    MJCF arm (not trilinear) plus a trilinear field scores 0 on the correction only; bent, it scores on every one.
+    The run writes footprint_grid_taut.json and its npz; --activation with the taut band is refused."""
     from shoulder_bench.authoring.fem import footprint_grid
 
     class Band:
@@ -340,20 +341,26 @@ def test_the_taut_bands_grid_check_scores_its_moment_arms(pose, monkeypatch, tmp
         def __init__(self, *args, bend=0.0, **kw):
             self.bend = bend
 
+        def mjcf_moment_arm(self, p):
+            return 0.02 * np.cos(np.radians(np.asarray(p, float)) * 3)
+
         def solve(self, p):
             q = np.radians(np.asarray(p, float))
             arm = 0.01 * np.array([1 + q[0] + 2 * q[1], q[1] - q[2] + q[0] * q[2], 3 + q[2]])
-            arm = arm + self.bend * np.cos(4 * q)
+            arm = arm + self.bend * np.cos(4 * q) + self.mjcf_moment_arm(p)
             return {"moment_arm_m": arm, "tension_N": 80.0, "contact_N": 0.0}
 
     for bend, zero in ((0.0, True), (0.002, False)):
         monkeypatch.setattr(footprint_grid, "FootprintSheet", lambda *a, bend=bend, **k: Band(bend=bend))
         r = footprint_grid.check_taut("tmi", 4, pose=pose)
-        assert r["checked"] == 4 and (max(r["arm_a1"].values()) < 1e-9) == zero
+        assert r["checked"] == 4 and (max(r["correction_a1"].values()) < 1e-9) == zero
+        assert min(r["arm_a1"].values()) > 0.01 and min(r["mjcf_a1"].values()) > 0.01
+        assert r["within_tol"] is (max(r["correction_a1"].values()) <= 2.0)
         assert [c["tension_a1_pct_f0"] for c in r["cell_records"]] == [80.0] * 4
     footprint_grid.run(("tmi",), out=tmp_path, n=4, rest="pose")
     text = json.loads((tmp_path / "footprint_grid_taut.json").read_text())
-    assert text["rest"] == "pose" and text["tendons"][0]["arm_a1"] is not None
-    assert np.load(tmp_path / "footprint_grid_taut.npz")["tmi/centre_arm_m"].shape == (4, 3)
+    assert text["rest"] == "pose" and text["tendons"][0]["correction_a1"] is not None
+    saved = np.load(tmp_path / "footprint_grid_taut.npz")
+    assert saved["tmi/centre_arm_m"].shape == saved["tmi/centre_mjcf_m"].shape == (4, 3)
     with pytest.raises(SystemExit, match="--activation goes with --rest reference"):
         fem_main(["footprint", "--activation", "--rest", "pose", "--tendon", "tmi"])
