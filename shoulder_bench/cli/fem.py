@@ -16,6 +16,8 @@ def _muscle(name: str) -> str:
 
 
 def _build(args) -> int:
+    if args.bands:
+        return _build_bands(args)
     if args.full:
         return _build_full(args)
     if args.jobs != 1:
@@ -60,7 +62,51 @@ def _build_full(args) -> int:
     return 0
 
 
+def _build_bands(args) -> int:
+    from shoulder_bench.authoring.fem import bands
+
+    if args.muscle or args.full:
+        raise SystemExit("shoulder-bench fem build: error: --bands builds the footprint sheets' line-of-action tables "
+                         f"of {', '.join(bands.FOOTPRINT_TENDONS)}: give --tendon, not --muscle or --full")
+    t0 = time.perf_counter()
+    try:
+        metas = bands.build(tuple(args.tendon) if args.tendon else bands.FOOTPRINT_TENDONS, coarse=args.coarse,
+                            out=args.out, jobs=args.jobs)
+    except (ValueError, RuntimeError) as exc:
+        raise SystemExit(f"shoulder-bench fem build: error: {exc}") from None
+    for t, m in metas.items():
+        how = "up to date, nothing to do" if m["cached"] else "solved"
+        big = ", ".join(f"{k} {v:.1f}" for k, v in m["largest_correction_mm"].items())
+        print(f"{t}: {m['resolution']} band, {how} ({m['build_seconds']:.1f} s to solve; largest correction to the "
+              f"MJCF arms, mm: {big}; tension {m['tension_range_N'][0]:.0f}-{m['tension_range_N'][1]:.0f} N)")
+    print(f"total {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
 def _verify(args) -> int:
+    if args.bands:
+        import numpy as np
+
+        from shoulder_bench.authoring.fem import bands
+        from shoulder_bench.authoring.fem.verify_full import held_out_poses
+
+        poses = None
+        if args.held_out is not None:  # a subset drawn with a fixed seed
+            if args.held_out < 1:
+                raise SystemExit(f"shoulder-bench fem verify: error: --held-out must be >= 1, not {args.held_out}")
+            all_ = held_out_poses()
+            poses = all_[np.sort(np.random.default_rng(0).choice(len(all_), min(args.held_out, len(all_)),
+                                                                  replace=False))]
+        unknown = [t for t in args.tendon or () if t not in bands.FOOTPRINT_TENDONS]
+        if unknown:
+            raise SystemExit(f"shoulder-bench fem verify: error: no band table for {', '.join(unknown)}; choose from "
+                             f"{', '.join(bands.FOOTPRINT_TENDONS)}")
+        try:
+            return bands.verify(folder=args.tables, tendons=args.tendon, poses=poses)
+        except ValueError as exc:  # a missing or unreadable table
+            raise SystemExit(f"shoulder-bench fem verify: error: {exc}") from None
+    if args.held_out is not None or args.tendon:
+        raise SystemExit("shoulder-bench fem verify: error: --tendon and --held-out go with --bands")
     if args.full:
         from shoulder_bench.authoring.fem.verify_full import verify as verify_full
 
@@ -119,7 +165,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="output folder, created if missing (default: models/muscles, with --full models/muscles_full)")
     b.add_argument("--full", action="store_true",
                    help="the full shoulder's 15 tendons over the 3-DOF pose space (models/muscles_full)")
-    b.add_argument("--tendon", action="append", help="with --full: only this tendon (repeatable; default all)")
+    b.add_argument("--tendon", action="append", help="with --full or --bands: only this tendon (repeatable; default "
+                   "all)")
+    b.add_argument("--bands", action="store_true", help="the footprint sheets' line-of-action tables (taut bands) of "
+                   "ssp, isp, tmi, tma, pec1 over the 3-DOF pose grid (models/muscles_full/<t>_band.npz)")
     b.add_argument("--jobs", type=int, default=1, help="with --full: solve this many tendons at once (processes)")
     b.set_defaults(func=_build)
     v = sub.add_parser("verify", help="re-solve held-out points, compare MuJoCo's torque with the FEM's, check "
@@ -131,6 +180,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     v.add_argument("--full", action="store_true", help="the full shoulder's tables (default folder "
                    "models/muscles_full): held-out poses re-solved, MuJoCo vs FEM over the 3-DOF pose grid")
     v.add_argument("--coarse", action="store_true", help="with --full: re-solve on coarse sheets (coarse tables)")
+    v.add_argument("--bands", action="store_true", help="the band tables (default folder models/muscles_full): the "
+                   "taut bands re-solved at held-out poses against the tables")
+    v.add_argument("--tendon", action="append", help="with --bands: only this tendon (repeatable)")
+    v.add_argument("--held-out", type=int, default=None, metavar="N",
+                   help="with --bands: N held-out poses drawn with a fixed seed (default: all 588)")
     v.set_defaults(func=_verify)
     f = sub.add_parser("footprint", help="footprint sheets (ssp, isp, ssc, tmi, tma, pec1) solved in 3-D with contact: "
                        "their moment arms beside the MJCF tendons' over 72 poses (docs/fem.md)")

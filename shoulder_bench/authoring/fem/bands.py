@@ -1,0 +1,252 @@
+"""Line-of-action tables from the footprint sheets (issue 12 §2; docs/fem.md "Taut bands"):
+`shoulder-bench fem build --bands [--tendon T ...] [--jobs N] [--coarse --out DIR]`, `fem verify --bands`.
+
+The reduced-order scheme. A tendon's generalised force about (plane, elevation, rotation) is
+
+    F(L_MT(q), a) * (r_MJCF(q) + c(q)),
+
+F the length-keyed FEM table's force (`fem.full`: the sheet with its tendon in series), r_MJCF = -ten_J S the MJCF
+tendon's moment arms (exact at every pose, as MuJoCo's tendon transmission applies them), and c the footprint sheet's
+correction to them: the taut band's moment arms (`footprint.FootprintSheet` with rest="pose": the sheet over the
+tendon's real footprint, stress-free in its draped shape at each pose, activated there, its line of action solved
+with contact) less the MJCF arms, tabled on the tasks' pose grid (`full_arm.pose_grid`: plane every 15 deg, elevation
+10, rotation 15; 840 poses) and interpolated trilinearly. What is exploited: that the band's line of action departs
+smoothly from the MJCF path's (the MJCF arms themselves turn fast near high elevation, 16 % of peak between the
+grid's poses for ssp, and the band's with them: a table of the band's own arms would miss by as much, the
+correction by < 1 %; docs/fem.md). Not exploited here: the activation (the band is solved at a = 1; the line of
+action of the walked sheets moved 1-4 mm between a = 0.25 and 1, docs/fem.md "Activation").
+
+Tendons: those whose footprint sheet is resolved (FOOTPRINT_TENDONS). ssc is left out: its 40 mm sheet on the parent's
+17 mm wrap sphere has several equilibria, unresolved until its contact surface is the humeral head.
+
+Caching and resuming: each table carries its input hash (the model file's bytes, the footprint width, the sheet
+resolution, material, solver settings, the grid, CODE_VERSION); a build solves only tendons whose table is missing or
+stale, writes each atomically when done, and holds the folder's lock while it runs.
+"""
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from shoulder_bench import full_arm
+from shoulder_bench.authoring.fem import output_folder, rounded
+from shoulder_bench.authoring.fem.footprint import FOOTPRINT_M, SETTINGS, FootprintSheet
+from shoulder_bench.authoring.fem.material import Material
+from shoulder_bench.authoring.fem.solver import NoConvergence
+from shoulder_bench.locks import FolderLock
+from shoulder_bench.muscle import replacing
+
+CODE_VERSION = "fem-band-1"  # bump when a change alters solutions; part of every table's input hash
+FOOTPRINT_TENDONS = ("ssp", "isp", "tmi", "tma", "pec1")
+
+
+def table_path(tendon: str, folder: Path | None = None) -> Path:
+    return Path(folder or full_arm.TABLE_FOLDER) / f"{tendon}_band.npz"
+
+
+def axes() -> list[np.ndarray]:
+    """The pose grid's values per coordinate (deg), as `full_arm.pose_grid` lays them out."""
+    return [np.arange(lo, hi + 1e-9, full_arm.POSE_STEP_DEG[c]) for c, (lo, hi) in full_arm.POSE_RANGE_DEG.items()]
+
+
+def grid_poses() -> np.ndarray:
+    """(P, 3) the grid's poses (deg), plane slowest, rotation fastest."""
+    return np.stack(np.meshgrid(*axes(), indexing="ij"), axis=-1).reshape(-1, 3)
+
+
+def input_hash(tendon: str, resolution: str, material: Material) -> str:
+    blob = json.dumps(rounded({"model": hashlib.sha256(full_arm.MODEL_FILE.read_bytes()).hexdigest(),
+                               "tendon": tendon, "width_m": FOOTPRINT_M[tendon], "resolution": resolution,
+                               "surface": "wrap", "rest": "pose", "material": material.as_dict(),
+                               "solver": SETTINGS.as_dict(), "axes": [a.tolist() for a in axes()],
+                               "code_version": CODE_VERSION}), sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
+class BandTable:
+    """One tendon's table: the band's and the MJCF's moment arms (m) on the pose grid, (planes, elevations,
+    rotations, 3); `correction(poses)` interpolates their difference trilinearly."""
+
+    def __init__(self, path: Path):
+        path = Path(path)
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                self.arrays = {k: z[k] for k in z.files}
+        except (OSError, ValueError, KeyError) as exc:
+            raise ValueError(f"{path}: not a band table ({exc}); rebuild it with `shoulder-bench fem build "
+                             f"--bands`") from exc
+        self.meta = json.loads(str(self.arrays.pop("meta")))
+        self.tendon = self.meta["tendon"]
+        from scipy.interpolate import RegularGridInterpolator
+
+        grid = tuple(self.arrays[k] for k in ("plane_deg", "elevation_deg", "rotation_deg"))
+        self._interp = RegularGridInterpolator(grid, self.arrays["moment_arm_m"] - self.arrays["mjcf_moment_arm_m"])
+
+    def correction(self, poses_deg) -> np.ndarray:
+        """(P, 3) m: the band's moment arms less the MJCF's at `poses_deg` (P, 3), trilinear between the grid's."""
+        return self._interp(np.atleast_2d(poses_deg))
+
+
+def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_arm.Pose | None = None) -> dict:
+    """The taut band of `tendon` at every grid pose: arrays on the grid's shape; RuntimeError naming the poses where
+    no equilibrium was found."""
+    sheet = FootprintSheet(tendon, resolution, pose=pose, rest="pose")
+    shape = tuple(len(a) for a in axes())
+    poses = grid_poses()
+    arm, mjcf = np.zeros((len(poses), 3)), np.zeros((len(poses), 3))
+    tension, contact, failed = np.zeros(len(poses)), np.zeros(len(poses)), []
+    for k, p in enumerate(poses):
+        mjcf[k] = sheet.mjcf_moment_arm(p)
+        try:
+            r = sheet.solve(p)
+            arm[k], tension[k], contact[k] = r["moment_arm_m"], r["tension_N"], r["contact_N"]
+        except NoConvergence:
+            failed.append(tuple(p))
+        if progress is not None:
+            progress()
+    if failed:
+        raise RuntimeError(f"{tendon}: no equilibrium of the taut band at {len(failed)} grid pose(s), e.g. "
+                           f"{failed[:3]} deg; the tables already written are kept")
+    return {"moment_arm_m": arm.reshape(*shape, 3), "mjcf_moment_arm_m": mjcf.reshape(*shape, 3),
+            "tension_N": tension.reshape(shape), "contact_N": contact.reshape(shape), "f0_N": sheet.f0}
+
+
+def _solve_one(job) -> tuple[str, dict, float]:
+    tendon, resolution = job
+    t0 = time.perf_counter()
+    return tendon, solve_grid(tendon, resolution), time.perf_counter() - t0
+
+
+def build(tendons=FOOTPRINT_TENDONS, coarse: bool = False, out: Path | None = None, jobs: int = 1,
+          quiet: bool = False) -> dict[str, dict]:
+    """Build (or reuse) each tendon's band table in `out` (default models/muscles_full); `jobs` processes solve
+    tendons in parallel. Returns {tendon: meta + cached}. --coarse needs --out."""
+    if coarse and out is None:
+        raise ValueError(f"--coarse without --out would replace the band tables in {full_arm.TABLE_FOLDER}; "
+                         "give --out DIR")
+    unknown = [t for t in tendons if t not in FOOTPRINT_TENDONS]
+    if unknown:
+        raise ValueError(f"no band table for {', '.join(unknown)}; tendons with one: {', '.join(FOOTPRINT_TENDONS)}")
+    if int(jobs) < 1:
+        raise ValueError(f"--jobs must be >= 1, got {jobs}")
+    folder = output_folder(out if out is not None else full_arm.TABLE_FOLDER, "--out")
+    folder.mkdir(parents=True, exist_ok=True)
+    lock = FolderLock(folder, "table folder", "give another --out")
+    try:
+        return _build(folder, tuple(tendons), "coarse" if coarse else "full", int(jobs), quiet)
+    finally:
+        lock.release(remove=True)
+
+
+def _build(folder: Path, tendons: tuple, resolution: str, jobs: int, quiet: bool) -> dict[str, dict]:
+    material, result, todo = Material(), {}, []
+    for t in tendons:
+        digest = input_hash(t, resolution, material)
+        try:
+            meta = BandTable(table_path(t, folder)).meta
+        except ValueError:  # missing or unreadable: solve it
+            meta = {}
+        if meta.get("input_hash") == digest:
+            result[t] = dict(meta, cached=True)
+        else:
+            todo.append((t, digest))
+    per_pose = jobs == 1 or len(todo) == 1
+    total = len(todo) * (len(grid_poses()) if per_pose else 1)
+    with tqdm(total=total, desc="fem bands", unit="pose" if per_pose else "tendon", disable=quiet or not todo) as bar, \
+            (contextlib.nullcontext() if per_pose else ProcessPoolExecutor(max_workers=jobs)) as pool:
+        if per_pose:
+            solved = ((t, *_timed(t, resolution, bar.update)) for t, _ in todo)
+        else:
+            solved = pool.map(_solve_one, [(t, resolution) for t, _ in todo])
+        for (t, digest), (_, grid, seconds) in zip(todo, solved):
+            meta = _meta(t, resolution, digest, grid, seconds)
+            _write(table_path(t, folder), grid, meta)
+            result[t] = dict(meta, cached=False)
+            if not per_pose:
+                bar.update(1)
+    return {t: result[t] for t in tendons}
+
+
+def _timed(tendon, resolution, progress):
+    t0 = time.perf_counter()
+    grid = solve_grid(tendon, resolution, progress)
+    return grid, time.perf_counter() - t0
+
+
+def _meta(tendon, resolution, digest, grid, seconds) -> dict:
+    c = grid["moment_arm_m"] - grid["mjcf_moment_arm_m"]
+    return {"tendon": tendon, "source": "fem footprint sheet, taut band (rest='pose')", "resolution": resolution,
+            "footprint_width_m": FOOTPRINT_M[tendon], "contact_surface": "the MJCF's wrap object",
+            "model_file": "models/shoulder_full_task.xml", "f0_N": grid["f0_N"],
+            "scheme": "F(L_MT(q), a) * (r_MJCF(q) + trilinear(moment_arm_m - mjcf_moment_arm_m))",
+            "largest_correction_mm": dict(zip(full_arm.COORDINATES, (np.abs(c).max(axis=(0, 1, 2)) * 1e3).tolist())),
+            "tension_range_N": [float(grid["tension_N"].min()), float(grid["tension_N"].max())],
+            "code_version": CODE_VERSION, "input_hash": digest, "build_seconds": round(seconds, 2)}
+
+
+def _write(path: Path, grid: dict, meta: dict) -> None:
+    plane, elevation, rotation = axes()
+    arrays = {"plane_deg": plane, "elevation_deg": elevation, "rotation_deg": rotation,
+              **{k: grid[k] for k in ("moment_arm_m", "mjcf_moment_arm_m", "tension_N", "contact_N")},
+              "meta": np.array(json.dumps(meta, sort_keys=True))}
+    with replacing(path) as tmp:
+        np.savez(tmp, **arrays)
+
+
+def verify(folder: Path | None = None, tendons=None, resolution: str | None = None, poses=None,
+           quiet: bool = False) -> int:
+    """Re-solve the taut band at held-out poses (default: all of `verify_full.held_out_poses`, halfway between the
+    grid's poses in every coordinate) against the scheme. Per coordinate the torque error at a = 1,
+    F(L_MT(q), 1) |r_MJCF(q) + c(q) - r_band(q)|, in % of the tendon's peak |F(L_MT, 1) r_band| over the grid's poses
+    (F: the length-keyed FEM table, `tendon_law`; a = 1 is where the error and the peak are largest); exit status 1
+    when any exceeds `verify_full.HELD_OUT_TOL`. resolution: the sheets' (default: the table's own)."""
+    from shoulder_bench.authoring.fem.verify_full import HELD_OUT_TOL, held_out_poses
+    from shoulder_bench.tendon_law import TendonLaw
+
+    folder = Path(folder or full_arm.TABLE_FOLDER)
+    names = [t for t in (tendons or FOOTPRINT_TENDONS) if tendons or table_path(t, folder).exists()]
+    if not names:
+        print(f"no band tables in {folder}; build them with `shoulder-bench fem build --bands`")
+        return 1
+    held = held_out_poses() if poses is None else np.atleast_2d(np.asarray(poses, float))
+    pose, failed = full_arm.Pose(), []
+    print(f"band tables in {folder}: {len(held)} held-out poses re-solved per tendon; error at a = 1 in % of the "
+          f"tendon's peak |torque| over the grid (bound {HELD_OUT_TOL * 100:g} %): plane, elevation, rotation")
+    for t in names:
+        table = BandTable(table_path(t, folder))
+        law = TendonLaw.load("fem", tendons=(t,))
+        arms = table.arrays["moment_arm_m"].reshape(-1, 3)
+        peak = np.abs(_full_force(law, pose, t, grid_poses())[:, None] * arms).max(axis=0)
+        sheet = FootprintSheet(t, resolution or table.meta["resolution"], pose=pose, rest="pose")
+        err, unsolved = np.full((len(held), 3), np.nan), 0
+        for k, q in enumerate(tqdm(held, desc=f"verify {t}", unit="pose", disable=quiet, leave=False)):
+            try:
+                band = sheet.solve(q)["moment_arm_m"]
+            except NoConvergence:
+                unsolved += 1
+                continue
+            scheme = sheet.mjcf_moment_arm(q) + table.correction(q)[0]
+            err[k] = np.abs(scheme - band)
+        pct = _full_force(law, pose, t, held)[:, None] * err / peak * 100
+        worst = np.nanmax(pct, axis=0)
+        ok = bool(np.all(worst <= HELD_OUT_TOL * 100)) and unsolved == 0
+        at = held[int(np.nanargmax(pct.max(axis=1)))]
+        print(f"{t:<5} {len(held) - unsolved}/{len(held)} solved  largest " + " ".join(f"{x:6.2f}" for x in worst)
+              + f" %  (at {tuple(float(x) for x in at)} deg)  " + ("pass" if ok else "FAIL"))
+        if not ok:
+            failed.append(t)
+    print("all band tables within the bound" if not failed else f"over the bound or unsolved: {', '.join(failed)}")
+    return 1 if failed else 0
+
+
+def _full_force(law, pose: full_arm.Pose, tendon: str, poses: np.ndarray) -> np.ndarray:
+    """(P,) N: the length-keyed law's force of `tendon` at full activation, at rest, at `poses` (deg)."""
+    n = len(poses)
+    return law.force(pose.tendon_geometry(poses, (tendon,))[0], np.zeros((n, 1)), np.ones((n, 1)))[:, 0]

@@ -1,0 +1,56 @@
+"""The footprint sheets' line-of-action tables (shoulder_bench/authoring/fem/bands.py, docs/fem.md "Taut bands"):
+built on a small piece of the pose grid with coarse sheets, cached, interpolated, verified against re-solved bands,
+and the verify fails when a table is off."""
+import json
+
+import numpy as np
+import pytest
+
+from shoulder_bench.authoring.fem import bands
+from shoulder_bench.cli.fem import main as fem_main
+
+# one cell of the tasks' grid (its steps: plane 15, elevation 10, rotation 15 deg) and its centre
+AXES = [np.array([30.0, 45.0]), np.array([40.0, 50.0]), np.array([0.0, 15.0])]
+CENTRE = [(37.5, 45.0, 7.5)]
+
+
+@pytest.fixture
+def cell(monkeypatch):
+    monkeypatch.setattr(bands, "axes", lambda: [a.copy() for a in AXES])
+
+
+def test_a_band_table_is_built_cached_and_verified(cell, tmp_path, capsys):
+    metas = bands.build(("tmi",), coarse=True, out=tmp_path, quiet=True)
+    assert metas["tmi"]["cached"] is False and metas["tmi"]["resolution"] == "coarse"
+    table = bands.BandTable(bands.table_path("tmi", tmp_path))
+    assert table.arrays["moment_arm_m"].shape == (2, 2, 2, 3) and (table.arrays["tension_N"] > 0).all()
+    # at a grid pose the correction is the stored difference; between them it is trilinear (the mean at the centre)
+    diff = table.arrays["moment_arm_m"] - table.arrays["mjcf_moment_arm_m"]
+    np.testing.assert_allclose(table.correction([45.0, 40.0, 15.0])[0], diff[1, 0, 1], atol=1e-15)
+    np.testing.assert_allclose(table.correction(CENTRE)[0], diff.reshape(-1, 3).mean(axis=0), atol=1e-15)
+    assert bands.build(("tmi",), coarse=True, out=tmp_path, quiet=True)["tmi"]["cached"] is True
+    assert bands.verify(tmp_path, ("tmi",), poses=CENTRE, quiet=True) == 0
+    assert "pass" in capsys.readouterr().out
+    # a table 1 mm off its band in the rotation arm (tmi's peak rotation arm is ~20 mm: ~5 %) fails
+    path = bands.table_path("tmi", tmp_path)
+    with np.load(path) as z:
+        arrays = {k: z[k] for k in z.files}
+    arrays["moment_arm_m"][..., 2] += 0.001
+    np.savez(path, **arrays)
+    assert bands.verify(tmp_path, ("tmi",), poses=CENTRE, quiet=True) == 1
+    assert "FAIL" in capsys.readouterr().out
+    meta = json.loads(str(np.load(path)["meta"]))
+    assert meta["input_hash"] == bands.input_hash("tmi", "coarse", bands.Material())
+
+
+def test_bad_requests_are_refused_before_any_solve(tmp_path, capsys):
+    with pytest.raises(ValueError, match="no band table for ssc"):
+        bands.build(("ssc",), coarse=True, out=tmp_path)
+    with pytest.raises(ValueError, match="--coarse without --out"):
+        bands.build(("tmi",), coarse=True)
+    with pytest.raises(SystemExit, match="no band table for ssc"):
+        fem_main(["build", "--bands", "--tendon", "ssc", "--coarse", "--out", str(tmp_path)])
+    with pytest.raises(SystemExit, match="go with --bands"):
+        fem_main(["verify", "--held-out", "3"])
+    assert bands.verify(tmp_path, quiet=True) == 1  # an empty folder
+    assert "no band tables" in capsys.readouterr().out
