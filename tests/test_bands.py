@@ -54,3 +54,29 @@ def test_bad_requests_are_refused_before_any_solve(tmp_path, capsys):
         fem_main(["verify", "--held-out", "3"])
     assert bands.verify(tmp_path, quiet=True) == 1  # an empty folder
     assert "no band tables" in capsys.readouterr().out
+
+
+def test_an_unsolved_grid_pose_takes_its_solved_neighbours_correction(cell, monkeypatch, tmp_path):
+    """The neighbours' mean, one step along each coordinate; more than MAX_UNSOLVED of the grid unsolved fails."""
+    field = np.arange(2 * 3 * 2 * 3, dtype=float).reshape(2, 3, 2, 3)
+    unsolved = np.zeros((2, 3, 2), bool)
+    unsolved[1, 1, 0] = True
+    got = bands._neighbours_mean(field, unsolved)
+    np.testing.assert_array_equal(got[1, 1, 0], np.mean([field[0, 1, 0], field[1, 0, 0], field[1, 2, 0],
+                                                         field[1, 1, 1]], axis=0))
+    np.testing.assert_array_equal(got[~unsolved], field[~unsolved])
+    solve = bands.FootprintSheet.solve
+
+    def one_fails(self, pose, activation=1.0):
+        if tuple(pose) == (45.0, 50.0, 15.0):
+            raise bands.NoConvergence("no")
+        return solve(self, pose, activation)
+
+    monkeypatch.setattr(bands.FootprintSheet, "solve", one_fails)
+    with pytest.raises(RuntimeError, match="no equilibrium of the taut band at 1 grid pose"):
+        bands.solve_grid("tmi", "coarse")  # 1 of 8 poses is over MAX_UNSOLVED
+    monkeypatch.setattr(bands, "MAX_UNSOLVED", 0.2)
+    grid = bands.solve_grid("tmi", "coarse")
+    assert grid["unsolved"].sum() == 1 and grid["unsolved"][1, 1, 1]
+    c = grid["moment_arm_m"] - grid["mjcf_moment_arm_m"]
+    np.testing.assert_allclose(c[1, 1, 1], np.mean([c[0, 1, 1], c[1, 0, 1], c[1, 1, 0]], axis=0))

@@ -19,6 +19,10 @@ action of the walked sheets moved 1-4 mm between a = 0.25 and 1, docs/fem.md "Ac
 Tendons: those whose footprint sheet is resolved (FOOTPRINT_TENDONS). ssc is left out: its 40 mm sheet on the parent's
 17 mm wrap sphere has several equilibria, unresolved until its contact surface is the humeral head.
 
+A grid pose where the band finds no equilibrium (tma at plane 90, elevation 140, rotation -45) takes the mean of its
+solved neighbours' correction; such poses are listed in the table (`unsolved`, meta) and at most MAX_UNSOLVED of
+the grid may be.
+
 Caching and resuming: each table carries its input hash (the model file's bytes, the footprint width, the sheet
 resolution, material, solver settings, the grid, CODE_VERSION); a build solves only tendons whose table is missing or
 stale, writes each atomically when done, and holds the folder's lock while it runs.
@@ -43,8 +47,11 @@ from shoulder_bench.authoring.fem.solver import NoConvergence
 from shoulder_bench.locks import FolderLock
 from shoulder_bench.muscle import replacing
 
-CODE_VERSION = "fem-band-1"  # bump when a change alters solutions; part of every table's input hash
+CODE_VERSION = "fem-band-2"  # bump when a change alters solutions; part of every table's input hash
 FOOTPRINT_TENDONS = ("ssp", "isp", "tmi", "tma", "pec1")
+# Where the band finds no equilibrium at a grid pose, the correction there is the mean of its solved neighbours'
+# (listed in the table's meta, `unsolved` in its arrays); more than this fraction of the grid unsolved fails the build
+MAX_UNSOLVED = 0.01
 
 
 def table_path(tendon: str, folder: Path | None = None) -> Path:
@@ -111,11 +118,33 @@ def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_
             failed.append(tuple(p))
         if progress is not None:
             progress()
-    if failed:
+    if len(failed) > MAX_UNSOLVED * len(poses):
         raise RuntimeError(f"{tendon}: no equilibrium of the taut band at {len(failed)} grid pose(s), e.g. "
                            f"{failed[:3]} deg; the tables already written are kept")
-    return {"moment_arm_m": arm.reshape(*shape, 3), "mjcf_moment_arm_m": mjcf.reshape(*shape, 3),
-            "tension_N": tension.reshape(shape), "contact_N": contact.reshape(shape), "f0_N": sheet.f0}
+    arm, mjcf = arm.reshape(*shape, 3), mjcf.reshape(*shape, 3)
+    unsolved = np.zeros(shape, bool)
+    unsolved.reshape(-1)[[k for k, p in enumerate(poses) if tuple(p) in failed]] = True
+    arm[unsolved] = mjcf[unsolved] + _neighbours_mean(arm - mjcf, unsolved)[unsolved]
+    return {"moment_arm_m": arm, "mjcf_moment_arm_m": mjcf, "tension_N": tension.reshape(shape),
+            "contact_N": contact.reshape(shape), "unsolved": unsolved, "f0_N": sheet.f0}
+
+
+def _neighbours_mean(field: np.ndarray, unsolved: np.ndarray) -> np.ndarray:
+    """`field` (grid shape + (3,)) where each unsolved grid pose takes the mean of its solved neighbours' values (one
+    step along each coordinate)."""
+    out = field.copy()
+    for idx in zip(*np.nonzero(unsolved)):
+        near = []
+        for axis in range(unsolved.ndim):
+            for step in (-1, 1):
+                j = list(idx)
+                j[axis] += step
+                if 0 <= j[axis] < unsolved.shape[axis] and not unsolved[tuple(j)]:
+                    near.append(field[tuple(j)])
+        if not near:
+            raise RuntimeError(f"grid pose {idx}: no solved neighbour to take its correction from")
+        out[idx] = np.mean(near, axis=0)
+    return out
 
 
 def _solve_one(job) -> tuple[str, dict, float]:
@@ -187,14 +216,18 @@ def _meta(tendon, resolution, digest, grid, seconds) -> dict:
             "model_file": "models/shoulder_full_task.xml", "f0_N": grid["f0_N"],
             "scheme": "F(L_MT(q), a) * (r_MJCF(q) + trilinear(moment_arm_m - mjcf_moment_arm_m))",
             "largest_correction_mm": dict(zip(full_arm.COORDINATES, (np.abs(c).max(axis=(0, 1, 2)) * 1e3).tolist())),
-            "tension_range_N": [float(grid["tension_N"].min()), float(grid["tension_N"].max())],
+            "tension_range_N": [float(grid["tension_N"][~grid["unsolved"]].min()),
+                                float(grid["tension_N"][~grid["unsolved"]].max())],
+            "unsolved_poses_deg": grid_poses()[grid["unsolved"].reshape(-1)].tolist(),
+            "unsolved_rule": "the correction: the mean of the solved neighbouring grid poses' (one step along each "
+                             "coordinate)",
             "code_version": CODE_VERSION, "input_hash": digest, "build_seconds": round(seconds, 2)}
 
 
 def _write(path: Path, grid: dict, meta: dict) -> None:
     plane, elevation, rotation = axes()
     arrays = {"plane_deg": plane, "elevation_deg": elevation, "rotation_deg": rotation,
-              **{k: grid[k] for k in ("moment_arm_m", "mjcf_moment_arm_m", "tension_N", "contact_N")},
+              **{k: grid[k] for k in ("moment_arm_m", "mjcf_moment_arm_m", "tension_N", "contact_N", "unsolved")},
               "meta": np.array(json.dumps(meta, sort_keys=True))}
     with replacing(path) as tmp:
         np.savez(tmp, **arrays)
