@@ -271,8 +271,10 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
         worst = np.nanmax(pct, axis=0)
         ok = bool(np.all(worst <= HELD_OUT_TOL * 100)) and unsolved == 0
         at = held[int(np.nanargmax(pct.max(axis=1)))]
+        over = int((np.nan_to_num(pct).max(axis=1) > HELD_OUT_TOL * 100).sum())
         print(f"{t:<5} {len(held) - unsolved}/{len(held)} solved  largest " + " ".join(f"{x:6.2f}" for x in worst)
-              + f" %  (at {tuple(float(x) for x in at)} deg)  " + ("pass" if ok else "FAIL"))
+              + f" %  (at {tuple(float(x) for x in at)} deg; {over} poses over the bound)  "
+              + ("pass" if ok else "FAIL"))
         if not ok:
             failed.append(t)
     print("all band tables within the bound" if not failed else f"over the bound or unsolved: {', '.join(failed)}")
