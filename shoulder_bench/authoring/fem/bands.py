@@ -40,11 +40,11 @@ import numpy as np
 from tqdm import tqdm
 
 from shoulder_bench import full_arm
-from shoulder_bench.authoring.fem import output_folder, rounded
+from shoulder_bench.authoring.fem import rounded
 from shoulder_bench.authoring.fem.footprint import FOOTPRINT_M, SETTINGS, FootprintSheet
+from shoulder_bench.authoring.fem.full import locked_folder
 from shoulder_bench.authoring.fem.material import Material
 from shoulder_bench.authoring.fem.solver import NoConvergence
-from shoulder_bench.locks import FolderLock
 from shoulder_bench.muscle import replacing
 
 CODE_VERSION = "fem-band-2"  # bump when a change alters solutions; part of every table's input hash
@@ -157,21 +157,11 @@ def build(tendons=FOOTPRINT_TENDONS, coarse: bool = False, out: Path | None = No
           quiet: bool = False) -> dict[str, dict]:
     """Build (or reuse) each tendon's band table in `out` (default models/muscles_full); `jobs` processes solve
     tendons in parallel. Returns {tendon: meta + cached}. --coarse needs --out."""
-    if coarse and out is None:
-        raise ValueError(f"--coarse without --out would replace the band tables in {full_arm.TABLE_FOLDER}; "
-                         "give --out DIR")
     unknown = [t for t in tendons if t not in FOOTPRINT_TENDONS]
     if unknown:
         raise ValueError(f"no band table for {', '.join(unknown)}; tendons with one: {', '.join(FOOTPRINT_TENDONS)}")
-    if int(jobs) < 1:
-        raise ValueError(f"--jobs must be >= 1, got {jobs}")
-    folder = output_folder(out if out is not None else full_arm.TABLE_FOLDER, "--out")
-    folder.mkdir(parents=True, exist_ok=True)
-    lock = FolderLock(folder, "table folder", "give another --out")
-    try:
+    with locked_folder(out, coarse, jobs, "band tables") as folder:
         return _build(folder, tuple(tendons), "coarse" if coarse else "full", int(jobs), quiet)
-    finally:
-        lock.release(remove=True)
 
 
 def _build(folder: Path, tendons: tuple, resolution: str, jobs: int, quiet: bool) -> dict[str, dict]:

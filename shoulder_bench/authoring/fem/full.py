@@ -106,20 +106,29 @@ def build(coarse: bool = False, out: Path | None = None, quiet: bool = False, jo
     """Build (or reuse) each tendon's table in `out` (default models/muscles_full); `jobs` processes solve tendons
     in parallel. Returns {tendon: meta + cached}. --coarse needs --out (coarse tables never replace the shipped
     ones)."""
-    if coarse and out is None:
-        raise ValueError(f"--coarse without --out would replace the full tables in {full_arm.TABLE_FOLDER}; "
-                         "give --out DIR")
     names = full_arm.TENDONS if tendons_ is None else tuple(tendons_)
     unknown = [t for t in names if t not in full_arm.TENDONS]
     if unknown:
         raise ValueError(f"unknown tendon(s) {unknown}; choose from {', '.join(full_arm.TENDONS)}")
+    with locked_folder(out, coarse, jobs, "full tables") as folder:
+        return _build(folder, coarse, quiet, jobs, names, material)
+
+
+@contextlib.contextmanager
+def locked_folder(out: Path | None, coarse: bool, jobs: int, what: str):
+    """The folder a full-shoulder table build writes (`out`, default models/muscles_full), checked before any work
+    (--coarse needs --out: coarse tables never replace the shipped `what`; --jobs >= 1), created, and locked while
+    the build runs: two builds never write one folder."""
+    if coarse and out is None:
+        raise ValueError(f"--coarse without --out would replace the {what} in {full_arm.TABLE_FOLDER}; "
+                         "give --out DIR")
     if int(jobs) < 1:
         raise ValueError(f"--jobs must be >= 1, got {jobs}")
     folder = output_folder(out if out is not None else full_arm.TABLE_FOLDER, "--out")
     folder.mkdir(parents=True, exist_ok=True)
-    lock = FolderLock(folder, "table folder", "give another --out")  # two builds never write one folder
+    lock = FolderLock(folder, "table folder", "give another --out")
     try:
-        return _build(folder, coarse, quiet, jobs, names, material)
+        yield folder
     finally:
         lock.release(remove=True)
 
