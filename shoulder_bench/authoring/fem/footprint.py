@@ -214,11 +214,7 @@ class FootprintSheet:
         start = np.asarray(REFERENCE_POSE_DEG, float)
         if activation not in self._at_reference:
             self._place(start)
-            x, a0 = pb.predict(self.draped(), 0.0, 0.0), 0.0
-            for a in [s * activation for s in ACTIVATION_STEPS]:
-                x, _ = pb.step(x, (0.0, a0), (0.0, a))
-                a0 = a
-            self._at_reference[activation] = x
+            self._at_reference[activation] = self._activate(pb.predict(self.draped(), 0.0, 0.0), activation)
         return self.reduce(self._walk(self._at_reference[activation], start, target, activation), activation)
 
     def _solve_taut(self, pose_deg, activation: float) -> dict:
@@ -227,12 +223,15 @@ class FootprintSheet:
         self._set(pose_deg)
         self._build(self.draped())
         self._place(pose_deg)
-        pb = self.problem
-        x, a0 = pb.predict(pb.X, 0.0, 0.0), 0.0
+        return self.reduce(self._activate(self.problem.predict(self.problem.X, 0.0, 0.0), activation), activation)
+
+    def _activate(self, x: np.ndarray, activation: float) -> np.ndarray:
+        """The relaxed sheet `x` (at the placed pose) activated to `activation` in ACTIVATION_STEPS."""
+        a0 = 0.0
         for a in [s * activation for s in ACTIVATION_STEPS]:
-            x, _ = pb.step(x, (0.0, a0), (0.0, a))
+            x, _ = self.problem.step(x, (0.0, a0), (0.0, a))
             a0 = a
-        return self.reduce(x, activation)
+        return x
 
     def solve_path(self, poses_deg, activation: float = 1.0) -> list[dict | None]:
         """`solve` at each of `poses_deg` in turn, each continued from the one before (the first from the reference
