@@ -80,3 +80,24 @@ def test_an_unsolved_grid_pose_takes_its_solved_neighbours_correction(cell, monk
     assert grid["unsolved"].sum() == 1 and grid["unsolved"][1, 1, 1]
     c = grid["moment_arm_m"] - grid["mjcf_moment_arm_m"]
     np.testing.assert_allclose(c[1, 1, 1], np.mean([c[0, 1, 1], c[1, 0, 1], c[1, 1, 0]], axis=0))
+
+
+def test_the_tables_read_trilinearly_or_by_a_tricubic_spline(tmp_path):
+    """A correction cubic in every coordinate: the spline gives it back (to 1e-4) between the grid's poses, trilinear
+    does not; at the grid's poses both give the stored values; an unknown interpolation is refused."""
+    axes = [np.arange(0.0, 91.0, 15.0), np.arange(0.0, 141.0, 10.0), np.arange(-45.0, 61.0, 15.0)]
+    P, E, R = np.meshgrid(*axes, indexing="ij")
+    field = np.stack([(P / 90) ** 3, (E / 140) ** 3 - E / 140, (R / 60) ** 2 * (P / 90)], axis=-1) * 1e-3
+    meta = {"tendon": "tmi", "resolution": "coarse"}
+    np.savez(tmp_path / "tmi_band.npz", plane_deg=axes[0], elevation_deg=axes[1], rotation_deg=axes[2],
+             moment_arm_m=field + 0.01, mjcf_moment_arm_m=np.full(field.shape, 0.01), meta=np.array(json.dumps(meta)))
+    q = np.array([[37.5, 45.0, 7.5], [82.5, 135.0, -37.5]])
+    exact = np.stack([(q[:, 0] / 90) ** 3, (q[:, 1] / 140) ** 3 - q[:, 1] / 140,
+                      (q[:, 2] / 60) ** 2 * (q[:, 0] / 90)], axis=-1) * 1e-3
+    cubic = bands.BandTable(tmp_path / "tmi_band.npz", "cubic")
+    linear = bands.BandTable(tmp_path / "tmi_band.npz")
+    np.testing.assert_allclose(cubic.correction(q), exact, atol=1e-7)  # 1e-4 of the field: scipy's spline
+    assert np.abs(linear.correction(q) - exact).max() > 1e-5
+    np.testing.assert_allclose(linear.correction([[45.0, 70.0, 15.0]])[0], field[3, 7, 4], atol=1e-15)
+    with pytest.raises(ValueError, match="unknown interpolation"):
+        bands.BandTable(tmp_path / "tmi_band.npz", "nearest")

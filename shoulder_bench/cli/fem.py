@@ -102,11 +102,11 @@ def _verify(args) -> int:
             raise SystemExit(f"shoulder-bench fem verify: error: no band table for {', '.join(unknown)}; choose from "
                              f"{', '.join(bands.FOOTPRINT_TENDONS)}")
         try:
-            return bands.verify(folder=args.tables, tendons=args.tendon, poses=poses)
+            return bands.verify(folder=args.tables, tendons=args.tendon, poses=poses, interpolation=args.interpolation)
         except ValueError as exc:  # a missing or unreadable table
             raise SystemExit(f"shoulder-bench fem verify: error: {exc}") from None
-    if args.held_out is not None or args.tendon:
-        raise SystemExit("shoulder-bench fem verify: error: --tendon and --held-out go with --bands")
+    if args.held_out is not None or args.tendon or args.interpolation != "linear":
+        raise SystemExit("shoulder-bench fem verify: error: --tendon, --held-out and --interpolation go with --bands")
     if args.full:
         from shoulder_bench.authoring.fem.verify_full import verify as verify_full
 
@@ -185,6 +185,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     v.add_argument("--tendon", action="append", help="with --bands: only this tendon (repeatable)")
     v.add_argument("--held-out", type=int, default=None, metavar="N",
                    help="with --bands: N held-out poses drawn with a fixed seed (default: all 588)")
+    v.add_argument("--interpolation", choices=("linear", "cubic"), default="linear",
+                   help="with --bands: the tables read trilinearly (the scheme) or by a tricubic spline")
     v.set_defaults(func=_verify)
     f = sub.add_parser("footprint", help="footprint sheets (ssp, isp, ssc, tmi, tma, pec1) solved in 3-D with contact: "
                        "their moment arms beside the MJCF tendons' over 72 poses (docs/fem.md)")

@@ -77,11 +77,17 @@ def input_hash(tendon: str, resolution: str, material: Material) -> str:
     return hashlib.sha256(blob.encode()).hexdigest()
 
 
+INTERPOLATIONS = ("linear", "cubic")  # trilinear (the scheme), or scipy's tricubic spline (a comparison)
+
+
 class BandTable:
     """One tendon's table: the band's and the MJCF's moment arms (m) on the pose grid, (planes, elevations,
-    rotations, 3); `correction(poses)` interpolates their difference trilinearly."""
+    rotations, 3); `correction(poses)` interpolates their difference (trilinear; `interpolation`="cubic": scipy's
+    tricubic spline through the same points)."""
 
-    def __init__(self, path: Path):
+    def __init__(self, path: Path, interpolation: str = "linear"):
+        if interpolation not in INTERPOLATIONS:
+            raise ValueError(f"unknown interpolation {interpolation!r}; choose from {', '.join(INTERPOLATIONS)}")
         path = Path(path)
         try:
             with np.load(path, allow_pickle=False) as z:
@@ -94,7 +100,8 @@ class BandTable:
         from scipy.interpolate import RegularGridInterpolator
 
         grid = tuple(self.arrays[k] for k in ("plane_deg", "elevation_deg", "rotation_deg"))
-        self._interp = RegularGridInterpolator(grid, self.arrays["moment_arm_m"] - self.arrays["mjcf_moment_arm_m"])
+        self._interp = RegularGridInterpolator(grid, self.arrays["moment_arm_m"] - self.arrays["mjcf_moment_arm_m"],
+                                               method=interpolation)
 
     def correction(self, poses_deg) -> np.ndarray:
         """(P, 3) m: the band's moment arms less the MJCF's at `poses_deg` (P, 3), trilinear between the grid's."""
@@ -224,12 +231,13 @@ def _write(path: Path, grid: dict, meta: dict) -> None:
 
 
 def verify(folder: Path | None = None, tendons=None, resolution: str | None = None, poses=None,
-           quiet: bool = False) -> int:
+           quiet: bool = False, interpolation: str = "linear") -> int:
     """Re-solve the taut band at held-out poses (default: all of `verify_full.held_out_poses`, halfway between the
     grid's poses in every coordinate) against the scheme. Per coordinate the torque error at a = 1,
     F(L_MT(q), 1) |r_MJCF(q) + c(q) - r_band(q)|, in % of the tendon's peak |F(L_MT, 1) r_band| over the grid's poses
     (F: the length-keyed FEM table, `tendon_law`; a = 1 is where the error and the peak are largest); exit status 1
-    when any exceeds `verify_full.HELD_OUT_TOL`. resolution: the sheets' (default: the table's own)."""
+    when any exceeds `verify_full.HELD_OUT_TOL`. resolution: the sheets' (default: the table's own). interpolation:
+    the tables' (`BandTable`)."""
     from shoulder_bench.authoring.fem.verify_full import HELD_OUT_TOL, held_out_poses
     from shoulder_bench.tendon_law import TendonLaw
 
@@ -240,10 +248,11 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
         return 1
     held = held_out_poses() if poses is None else np.atleast_2d(np.asarray(poses, float))
     pose, failed = full_arm.Pose(), []
-    print(f"band tables in {folder}: {len(held)} held-out poses re-solved per tendon; error at a = 1 in % of the "
-          f"tendon's peak |torque| over the grid (bound {HELD_OUT_TOL * 100:g} %): plane, elevation, rotation")
+    print(f"band tables in {folder} ({interpolation}): {len(held)} held-out poses re-solved per tendon; error at "
+          f"a = 1 in % of the tendon's peak |torque| over the grid (bound {HELD_OUT_TOL * 100:g} %): plane, "
+          "elevation, rotation")
     for t in names:
-        table = BandTable(table_path(t, folder))
+        table = BandTable(table_path(t, folder), interpolation)
         law = TendonLaw.load("fem", tendons=(t,))
         arms = table.arrays["moment_arm_m"].reshape(-1, 3)
         peak = np.abs(_full_force(law, pose, t, grid_poses())[:, None] * arms).max(axis=0)
