@@ -101,3 +101,11 @@ def test_the_tables_read_trilinearly_or_by_a_tricubic_spline(tmp_path):
     np.testing.assert_allclose(linear.correction([[45.0, 70.0, 15.0]])[0], field[3, 7, 4], atol=1e-15)
     with pytest.raises(ValueError, match="unknown interpolation"):
         bands.BandTable(tmp_path / "tmi_band.npz", "nearest")
+
+
+def test_tendons_build_in_parallel_processes(cell, tmp_path):
+    metas = bands.build(("tmi", "pec1"), coarse=True, out=tmp_path, jobs=2, quiet=True)
+    assert [m["cached"] for m in metas.values()] == [False, False]
+    for t in ("tmi", "pec1"):
+        table = bands.BandTable(bands.table_path(t, tmp_path))
+        assert table.tendon == t and np.isfinite(table.arrays["moment_arm_m"]).all()

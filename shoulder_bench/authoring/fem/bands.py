@@ -104,7 +104,7 @@ class BandTable:
                                                method=interpolation)
 
     def correction(self, poses_deg) -> np.ndarray:
-        """(P, 3) m: the band's moment arms less the MJCF's at `poses_deg` (P, 3), trilinear between the grid's."""
+        """(P, 3) m: the band's moment arms less the MJCF's at `poses_deg` (P, 3), interpolated between the grid's."""
         return self._interp(np.atleast_2d(poses_deg))
 
 
@@ -115,22 +115,21 @@ def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_
     shape = tuple(len(a) for a in axes())
     poses = grid_poses()
     arm, mjcf = np.zeros((len(poses), 3)), np.zeros((len(poses), 3))
-    tension, contact, failed = np.zeros(len(poses)), np.zeros(len(poses)), []
+    tension, contact, unsolved = np.zeros(len(poses)), np.zeros(len(poses)), np.zeros(len(poses), bool)
     for k, p in enumerate(poses):
         mjcf[k] = sheet.mjcf_moment_arm(p)
         try:
             r = sheet.solve(p)
             arm[k], tension[k], contact[k] = r["moment_arm_m"], r["tension_N"], r["contact_N"]
         except NoConvergence:
-            failed.append(tuple(p))
+            unsolved[k] = True
         if progress is not None:
             progress()
-    if len(failed) > MAX_UNSOLVED * len(poses):
-        raise RuntimeError(f"{tendon}: no equilibrium of the taut band at {len(failed)} grid pose(s), e.g. "
-                           f"{failed[:3]} deg; the tables already written are kept")
-    arm, mjcf = arm.reshape(*shape, 3), mjcf.reshape(*shape, 3)
-    unsolved = np.zeros(shape, bool)
-    unsolved.reshape(-1)[[k for k, p in enumerate(poses) if tuple(p) in failed]] = True
+    if unsolved.sum() > MAX_UNSOLVED * len(poses):
+        raise RuntimeError(f"{tendon}: no equilibrium of the taut band at {unsolved.sum()} grid pose(s), e.g. "
+                           f"{[tuple(p) for p in poses[unsolved][:3].tolist()]} deg; the tables already written are "
+                           "kept")
+    arm, mjcf, unsolved = arm.reshape(*shape, 3), mjcf.reshape(*shape, 3), unsolved.reshape(shape)
     arm[unsolved] = mjcf[unsolved] + _neighbours_mean(arm - mjcf, unsolved)[unsolved]
     return {"moment_arm_m": arm, "mjcf_moment_arm_m": mjcf, "tension_N": tension.reshape(shape),
             "contact_N": contact.reshape(shape), "unsolved": unsolved, "f0_N": sheet.f0}
@@ -154,10 +153,10 @@ def _neighbours_mean(field: np.ndarray, unsolved: np.ndarray) -> np.ndarray:
     return out
 
 
-def _solve_one(job) -> tuple[str, dict, float]:
-    tendon, resolution = job
+def _solve_one(tendon: str, resolution: str, progress=None) -> tuple[str, dict, float]:
     t0 = time.perf_counter()
-    return tendon, solve_grid(tendon, resolution), time.perf_counter() - t0
+    grid = solve_grid(tendon, resolution, progress)
+    return tendon, grid, time.perf_counter() - t0
 
 
 def build(tendons=FOOTPRINT_TENDONS, coarse: bool = False, out: Path | None = None, jobs: int = 1,
@@ -188,9 +187,9 @@ def _build(folder: Path, tendons: tuple, resolution: str, jobs: int, quiet: bool
     with tqdm(total=total, desc="fem bands", unit="pose" if per_pose else "tendon", disable=quiet or not todo) as bar, \
             (contextlib.nullcontext() if per_pose else ProcessPoolExecutor(max_workers=jobs)) as pool:
         if per_pose:
-            solved = ((t, *_timed(t, resolution, bar.update)) for t, _ in todo)
+            solved = (_solve_one(t, resolution, bar.update) for t, _ in todo)
         else:
-            solved = pool.map(_solve_one, [(t, resolution) for t, _ in todo])
+            solved = pool.map(_solve_one, [t for t, _ in todo], [resolution] * len(todo))
         for (t, digest), (_, grid, seconds) in zip(todo, solved):
             meta = _meta(t, resolution, digest, grid, seconds)
             _write(table_path(t, folder), grid, meta)
@@ -198,12 +197,6 @@ def _build(folder: Path, tendons: tuple, resolution: str, jobs: int, quiet: bool
             if not per_pose:
                 bar.update(1)
     return {t: result[t] for t in tendons}
-
-
-def _timed(tendon, resolution, progress):
-    t0 = time.perf_counter()
-    grid = solve_grid(tendon, resolution, progress)
-    return grid, time.perf_counter() - t0
 
 
 def _meta(tendon, resolution, digest, grid, seconds) -> dict:
