@@ -149,19 +149,27 @@ class LockedPath:
 
     def gravity_torque(self, elevation_rad: float) -> float:
         """-dPE/dq (N m, + elevates) of the humerus alone: -m g (J_com S)_z, S = dqpos/dq along the couplings."""
-        m, d = self.m, self.pose(elevation_rad)
-        s = self.slopes(elevation_rad)
-        jacp = np.zeros((3, m.nv))
-        mujoco.mj_jacBodyCom(m, d, jacp, None, self.hum)
-        return float(m.body_mass[self.hum] * m.opt.gravity[2] * (jacp[2] @ s))
+        self.pose(elevation_rad)
+        return self._posed_gravity(self.slopes(elevation_rad))
 
     def inertia(self, elevation_rad: float) -> float:
         """Reduced inertia S^T M S (kg m^2) of the whole model along the coupling."""
-        m, d = self.m, self.pose(elevation_rad)
-        mujoco.mj_crb(m, d)
+        self.pose(elevation_rad)
+        return self._posed_inertia(self.slopes(elevation_rad))
+
+    def _posed_gravity(self, s: np.ndarray) -> float:
+        """`gravity_torque` at the pose `self.d` holds, S = `s`."""
+        m = self.m
+        jacp = np.zeros((3, m.nv))
+        mujoco.mj_jacBodyCom(m, self.d, jacp, None, self.hum)
+        return float(m.body_mass[self.hum] * m.opt.gravity[2] * (jacp[2] @ s))
+
+    def _posed_inertia(self, s: np.ndarray) -> float:
+        """`inertia` at the pose `self.d` holds, S = `s`."""
+        m = self.m
+        mujoco.mj_crb(m, self.d)
         full = np.zeros((m.nv, m.nv))
-        mujoco.mj_fullM(m, d, full)
-        s = self.slopes(elevation_rad)
+        mujoco.mj_fullM(m, self.d, full)
         return float(s @ full @ s)
 
     def damping(self, elevation_rad: float = 0.0) -> float:
@@ -199,19 +207,12 @@ class Arm(LockedPath):
 
     def _reduced(self, grid) -> tuple[np.ndarray, np.ndarray]:
         """`LockedPath.gravity_torque` and `LockedPath.inertia` at every elevation of `grid` (rad), each point posed
-        once for both (the same arithmetic as the two methods)."""
-        m, d, hum = self.m, self.d, self.hum
+        once for both."""
         gravity, inertia = np.empty(len(grid)), np.empty(len(grid))
-        jacp, full = np.zeros((3, m.nv)), np.zeros((m.nv, m.nv))
-        weight = m.body_mass[hum] * m.opt.gravity[2]
         for k, q in enumerate(grid):
             self.pose(q)
             s = self.slopes(q)
-            mujoco.mj_jacBodyCom(m, d, jacp, None, hum)
-            gravity[k] = float(weight * (jacp[2] @ s))
-            mujoco.mj_crb(m, d)
-            mujoco.mj_fullM(m, d, full)
-            inertia[k] = float(s @ full @ s)
+            gravity[k], inertia[k] = self._posed_gravity(s), self._posed_inertia(s)
         return gravity, inertia
 
     def gravity_torque(self, elevation_rad):

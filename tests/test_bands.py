@@ -65,14 +65,17 @@ def test_an_unsolved_grid_pose_takes_its_solved_neighbours_correction(cell, monk
     np.testing.assert_array_equal(got[1, 1, 0], np.mean([field[0, 1, 0], field[1, 0, 0], field[1, 2, 0],
                                                          field[1, 1, 1]], axis=0))
     np.testing.assert_array_equal(got[~unsolved], field[~unsolved])
-    solve = bands.FootprintSheet.solve
+    from shoulder_bench.authoring.fem.footprint import FootprintSheet
+    from shoulder_bench.authoring.fem.solver import NoConvergence
+
+    solve = FootprintSheet.solve
 
     def one_fails(self, pose, activation=1.0):
         if tuple(pose) == (45.0, 50.0, 15.0):
-            raise bands.NoConvergence("no")
+            raise NoConvergence("no")
         return solve(self, pose, activation)
 
-    monkeypatch.setattr(bands.FootprintSheet, "solve", one_fails)
+    monkeypatch.setattr(FootprintSheet, "solve", one_fails)
     with pytest.raises(RuntimeError, match="no equilibrium of the taut band at 1 grid pose"):
         bands.solve_grid("tmi", "coarse")  # 1 of 8 poses is over MAX_UNSOLVED
     monkeypatch.setattr(bands, "MAX_UNSOLVED", 0.2)

@@ -335,11 +335,17 @@ def test_the_taut_bands_grid_check_scores_its_moment_arms(pose, monkeypatch, tmp
     The run writes footprint_grid_taut.json and its npz; --activation with the taut band is refused."""
     from shoulder_bench.authoring.fem import footprint_grid
 
-    class Band:
-        f0 = 100.0
+    class Band:  # what `footprint.compare` reads of a sheet
+        f0, width, ns, nt, reference_length = 100.0, 0.03, 3, 3, 1.0
 
         def __init__(self, *args, bend=0.0, **kw):
             self.bend = bend
+
+        def _set(self, p):
+            pass
+
+        def central_length(self):
+            return 1.0
 
         def mjcf_moment_arm(self, p):
             return 0.02 * np.cos(np.radians(np.asarray(p, float)) * 3)
@@ -351,7 +357,7 @@ def test_the_taut_bands_grid_check_scores_its_moment_arms(pose, monkeypatch, tmp
             return {"moment_arm_m": arm, "tension_N": 80.0, "contact_N": 0.0}
 
     for bend, zero in ((0.0, True), (0.002, False)):
-        monkeypatch.setattr(footprint_grid, "FootprintSheet", lambda *a, bend=bend, **k: Band(bend=bend))
+        monkeypatch.setattr(F, "FootprintSheet", lambda *a, bend=bend, **k: Band(bend=bend))
         r = footprint_grid.check_taut("tmi", 4, pose=pose)
         assert r["checked"] == 4 and (max(r["correction_a1"].values()) < 1e-9) == zero
         assert min(r["arm_a1"].values()) > 0.01 and min(r["mjcf_a1"].values()) > 0.01

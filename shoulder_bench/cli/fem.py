@@ -85,18 +85,15 @@ def _build_bands(args) -> int:
 
 def _verify(args) -> int:
     if args.bands:
-        import numpy as np
-
         from shoulder_bench.authoring.fem import bands
+        from shoulder_bench.authoring.fem.footprint_grid import cells
         from shoulder_bench.authoring.fem.verify_full import held_out_poses
 
         poses = None
-        if args.held_out is not None:  # a subset drawn with a fixed seed
+        if args.held_out is not None:  # a subset drawn with a fixed seed: the grid check's cells
             if args.held_out < 1:
                 raise SystemExit(f"shoulder-bench fem verify: error: --held-out must be >= 1, not {args.held_out}")
-            all_ = held_out_poses()
-            poses = all_[np.sort(np.random.default_rng(0).choice(len(all_), min(args.held_out, len(all_)),
-                                                                  replace=False))]
+            poses = cells(min(args.held_out, len(held_out_poses())))[0]
         unknown = [t for t in args.tendon or () if t not in bands.FOOTPRINT_TENDONS]
         if unknown:
             raise SystemExit(f"shoulder-bench fem verify: error: no band table for {', '.join(unknown)}; choose from "

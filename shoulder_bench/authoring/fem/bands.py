@@ -41,10 +41,9 @@ from tqdm import tqdm
 
 from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem import rounded
-from shoulder_bench.authoring.fem.footprint import FOOTPRINT_M, SETTINGS, FootprintSheet
+from shoulder_bench.authoring.fem.footprint import FOOTPRINT_M, SETTINGS, compare
 from shoulder_bench.authoring.fem.full import locked_folder
 from shoulder_bench.authoring.fem.material import Material
-from shoulder_bench.authoring.fem.solver import NoConvergence
 from shoulder_bench.muscle import replacing
 
 CODE_VERSION = "fem-band-2"  # bump when a change alters solutions; part of every table's input hash
@@ -111,20 +110,10 @@ class BandTable:
 def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_arm.Pose | None = None) -> dict:
     """The taut band of `tendon` at every grid pose: arrays on the grid's shape; RuntimeError naming the poses where
     no equilibrium was found."""
-    sheet = FootprintSheet(tendon, resolution, pose=pose, rest="pose")
-    shape = tuple(len(a) for a in axes())
-    poses = grid_poses()
-    arm, mjcf = np.zeros((len(poses), 3)), np.zeros((len(poses), 3))
-    tension, contact, unsolved = np.zeros(len(poses)), np.zeros(len(poses)), np.zeros(len(poses), bool)
-    for k, p in enumerate(poses):
-        mjcf[k] = sheet.mjcf_moment_arm(p)
-        try:
-            r = sheet.solve(p)
-            arm[k], tension[k], contact[k] = r["moment_arm_m"], r["tension_N"], r["contact_N"]
-        except NoConvergence:
-            unsolved[k] = True
-        if progress is not None:
-            progress()
+    shape, poses = tuple(len(a) for a in axes()), grid_poses()
+    r = compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose")
+    arm, mjcf, unsolved = r["fem_m"], r["mjcf_m"], ~r["converged"]
+    tension, contact = np.nan_to_num(r["tension_N"]), np.nan_to_num(r["contact_N"])  # 0 where unsolved
     if unsolved.sum() > MAX_UNSOLVED * len(poses):
         raise RuntimeError(f"{tendon}: no equilibrium of the taut band at {unsolved.sum()} grid pose(s), e.g. "
                            f"{[tuple(p) for p in poses[unsolved][:3].tolist()]} deg; the tables already written are "
@@ -132,7 +121,7 @@ def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_
     arm, mjcf, unsolved = arm.reshape(*shape, 3), mjcf.reshape(*shape, 3), unsolved.reshape(shape)
     arm[unsolved] = mjcf[unsolved] + _neighbours_mean(arm - mjcf, unsolved)[unsolved]
     return {"moment_arm_m": arm, "mjcf_moment_arm_m": mjcf, "tension_N": tension.reshape(shape),
-            "contact_N": contact.reshape(shape), "unsolved": unsolved, "f0_N": sheet.f0}
+            "contact_N": contact.reshape(shape), "unsolved": unsolved, "f0_N": r["f0_N"]}
 
 
 def _neighbours_mean(field: np.ndarray, unsolved: np.ndarray) -> np.ndarray:
@@ -249,16 +238,11 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
         law = TendonLaw.load("fem", tendons=(t,))
         arms = table.arrays["moment_arm_m"].reshape(-1, 3)
         peak = np.abs(_full_force(law, pose, t, grid_poses())[:, None] * arms).max(axis=0)
-        sheet = FootprintSheet(t, resolution or table.meta["resolution"], pose=pose, rest="pose")
-        err, unsolved = np.full((len(held), 3), np.nan), 0
-        for k, q in enumerate(tqdm(held, desc=f"verify {t}", unit="pose", disable=quiet, leave=False)):
-            try:
-                band = sheet.solve(q)["moment_arm_m"]
-            except NoConvergence:
-                unsolved += 1
-                continue
-            scheme = sheet.mjcf_moment_arm(q) + table.correction(q)[0]
-            err[k] = np.abs(scheme - band)
+        with tqdm(total=len(held), desc=f"verify {t}", unit="pose", disable=quiet, leave=False) as bar:
+            band = compare(t, held, resolution or table.meta["resolution"], progress=bar.update, pose=pose,
+                           rest="pose")
+        unsolved = int((~band["converged"]).sum())
+        err = np.abs(band["mjcf_m"] + table.correction(held) - band["fem_m"])  # NaN where unsolved
         pct = _full_force(law, pose, t, held)[:, None] * err / peak * 100
         worst = np.nanmax(pct, axis=0)
         ok = bool(np.all(worst <= HELD_OUT_TOL * 100)) and unsolved == 0

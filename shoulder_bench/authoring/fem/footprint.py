@@ -342,9 +342,10 @@ def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None =
             surface: str = "wrap", pose: full_arm.Pose | None = None, rest: str = "reference") -> dict:
     """FEM vs MJCF moment arms of `tendon` at `poses_deg` (P, 3): arrays (P, 3) in m (NaN where the sheet found no
     equilibrium: `converged`), the tensions and contact forces (N), the central fibre's stretch (its initial shape's
-    length over the reference's). progress: called after each pose. surface: the sheet's contact surface
+    length over the reference's), its F0 (N). progress: called after each pose. surface: the sheet's contact surface
     (`SURFACES`). pose: the model posed (default: the task model, compiled anew). rest: the sheet's stress-free
-    state (`RESTS`). A ValueError if the tendon has no sheet (`FootprintSheet`)."""
+    state (`RESTS`). A ValueError if the tendon has no sheet (`FootprintSheet`). The footprint commands' loop over
+    poses (the report, the taut band's grid check, the band tables and their verify)."""
     sheet = FootprintSheet(tendon, resolution, width_m, pose=pose, surface=surface, rest=rest)
     poses = np.atleast_2d(np.asarray(poses_deg, float))
     out = {"fem_m": np.full((len(poses), 3), np.nan), "mjcf_m": np.zeros((len(poses), 3)),
@@ -364,4 +365,4 @@ def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None =
         if progress is not None:
             progress()
     return {"tendon": tendon, "poses_deg": poses, "width_m": sheet.width, "resolution": (sheet.ns, sheet.nt),
-            "surface": surface, "rest": rest, **out}
+            "surface": surface, "rest": rest, "f0_N": sheet.f0, **out}

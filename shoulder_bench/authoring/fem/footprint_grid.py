@@ -39,10 +39,9 @@ from pathlib import Path
 import numpy as np
 
 from shoulder_bench import full_arm
-from shoulder_bench.authoring.fem.footprint import FootprintSheet
+from shoulder_bench.authoring.fem.footprint import compare
 from shoulder_bench.authoring.fem.footprint_activation import solve_levels
 from shoulder_bench.authoring.fem.footprint_report import each_tendon, output_stem, write_json
-from shoulder_bench.authoring.fem.solver import NoConvergence
 from shoulder_bench.authoring.fem.verify_full import HELD_OUT_TOL, held_out_poses
 from shoulder_bench.muscle import replacing
 
@@ -99,22 +98,14 @@ def check_taut(tendon: str, n: int = CELLS, resolution: str = "full", surface: s
     """The taut band's check (rest="pose"): its moment arms (torque / tension at a = 1) tabled on the grid, trilinear
     in the pose, against the band re-solved at the held-out centres; errors in % of the tendon's peak |moment arm|
     over the solved corners, per coordinate (score "arm_a1"). Every pose is solved on its own (no walk)."""
-    sheet = FootprintSheet(tendon, resolution, pose=pose or full_arm.Pose(), surface=surface, rest="pose")
+    pose = pose or full_arm.Pose()
     centres, corners, index = cells(n, refine=refine)
-    solves = {"corners_deg": corners, "corner_index": index, "centres_deg": centres, "f0_N": np.array(sheet.f0)}
+    solves = {"corners_deg": corners, "corner_index": index, "centres_deg": centres}
     for name, poses in (("corner", corners), ("centre", centres)):
-        arm, tension, contact = np.full((len(poses), 3), np.nan), np.full(len(poses), np.nan), np.full(len(poses),
-                                                                                                    np.nan)
-        solves[f"{name}_mjcf_m"] = np.array([sheet.mjcf_moment_arm(p) for p in poses])
-        for k, p in enumerate(poses):
-            try:
-                r = sheet.solve(p)
-                arm[k], tension[k], contact[k] = r["moment_arm_m"], r["tension_N"], r["contact_N"]
-            except NoConvergence:
-                pass
-            if progress is not None:
-                progress()
-        solves.update({f"{name}_arm_m": arm, f"{name}_tension_N": tension, f"{name}_contact_N": contact})
+        r = compare(tendon, poses, resolution, progress=progress, surface=surface, pose=pose, rest="pose")
+        solves.update({f"{name}_arm_m": r["fem_m"], f"{name}_mjcf_m": r["mjcf_m"],
+                       f"{name}_tension_N": r["tension_N"], f"{name}_contact_N": r["contact_N"]})
+    solves["f0_N"] = np.array(r["f0_N"])
     pct, peak = scores(solves)
     ok = solved(pct)
     worst = {k: dict(zip(full_arm.COORDINATES, v[ok].max(axis=0).tolist())) if ok.any() else None
@@ -125,7 +116,7 @@ def check_taut(tendon: str, n: int = CELLS, resolution: str = "full", surface: s
                                and max(worst["correction_a1"].values()) <= HELD_OUT_TOL * 100),
             "cell_records": [{"centre_deg": centres[i].tolist(),
                               **{f"{k}_pct": v[i].tolist() if ok[i] else None for k, v in pct.items()},
-                              "tension_a1_pct_f0": _finite(solves["centre_tension_N"][i] / sheet.f0 * 100),
+                              "tension_a1_pct_f0": _finite(solves["centre_tension_N"][i] / solves["f0_N"] * 100),
                               "contact_a1_N": _finite(solves["centre_contact_N"][i])} for i in range(n)],
             "solves": solves}
 
