@@ -33,15 +33,16 @@ class TorqueLaw3:
     activation (F, muscles)) -> (F, muscles, 3) N m about plane, elevation, rotation (the tasks' FEM tables through
     the tendon moment arms, `full_arm.Pose.tendon_geometry`; a muscle's the sum over its tendons)."""
 
-    def __init__(self):
+    def __init__(self, line_of_action: str = "mjcf"):
         from shoulder_bench import full_arm
         from shoulder_bench.tendon_law import TendonLaw
 
-        self.law, self.pose = TendonLaw.load("fem", groups=full_arm.ACTUATORS), full_arm.Pose()
+        self.law = TendonLaw.load("fem", groups=full_arm.ACTUATORS, line_of_action=line_of_action)
+        self.pose = full_arm.Pose()
         self.muscles = self.law.muscles
 
     def torque(self, angle, velocity, activation) -> np.ndarray:
-        L, r = self.pose.tendon_geometry(np.degrees(angle), self.law.actuators)
+        L, r = self.law.geometry(self.pose, np.degrees(angle))
         f = self.law.force(L, np.zeros_like(L), activation)  # isometric: the lengthening rate 0
         tau = f[..., None] * r  # (F, tendons, 3)
         return np.stack([tau[:, list(self.law.muscle_of == k)].sum(axis=1) for k in range(len(self.muscles))], axis=1)
@@ -49,7 +50,7 @@ class TorqueLaw3:
 
 def score_of(policy, task: str, test: list, options: dict | None = None, law=None) -> dict:
     """`evaluate` with a recorded trace, plus the board's measures of it (the trace itself dropped); `law` a
-    TorqueLaw3 for the co-contraction (default a new one)."""
+    TorqueLaw3 for the co-contraction (default a new one, on the task's line of action)."""
     from shoulder_bench.eval import measures
     from shoulder_bench.eval.evaluate import evaluate
 
@@ -61,7 +62,12 @@ def score_of(policy, task: str, test: list, options: dict | None = None, law=Non
                     "sawtooth_per_s": measures.sawtooth_rate(trace["activation"]),
                     "mean_abs_delta": measures.mean_abs_delta(trace["activation"]),
                     "co_contraction": measures.co_contraction(trace["angle_deg"], trace["activation"],
-                                                              law or TorqueLaw3())}
+                                                              law or TorqueLaw3(lines_of(options)))}
+
+
+def lines_of(options: dict | None) -> str:
+    """The line of action a 3-DOF run's task options simulate (`band_lines.LINES`)."""
+    return (options or {}).get("line_of_action", "mjcf")
 
 
 def run_folders(runs: Path) -> list[Path]:
@@ -89,13 +95,16 @@ def setting_key(cfg: dict) -> str:
 
 
 def _variant(setting: str, settings: list[str]) -> str:
-    """" (key=value, ...)": what sets this setting apart from the others of its task and algorithm; "" if alone."""
-    if len(settings) < 2 or not setting:
+    """" (key=value, ...)": the task options this setting sets (e.g. line_of_action=band), and what in its algorithm
+    config sets it apart from the others of its task and algorithm; "" if nothing does."""
+    if not setting:
         return ""
-    mine = json.loads(setting)["config"] or {}
-    others = [json.loads(s)["config"] or {} for s in settings if s != setting]
+    d = json.loads(setting)
+    mine, options = d["config"] or {}, d["options"] or {}
+    others = [json.loads(s)["config"] or {} for s in settings if s != setting] if len(settings) > 1 else []
     keys = sorted(k for k in mine if any(o.get(k) != mine[k] for o in others))
-    return " (" + ", ".join(f"{k}={mine[k]}" for k in keys) + ")" if keys else ""
+    labels = [f"{k}={mine[k]}" for k in keys] + [f"{k}={v}" for k, v in sorted(options.items())]
+    return " (" + ", ".join(labels) + ")" if labels else ""
 
 
 def _row(task: str, algo: str, scores: list[dict], metrics: list[dict]) -> dict:
@@ -144,11 +153,21 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
             sets[task] = fixed_test_set(task)
         return sets[task]
     groups: dict[tuple[str, str], tuple[list, list]] = defaultdict(lambda: ([], []))
-    torques = TorqueLaw3()
+    torques: dict[str, TorqueLaw3] = {}  # per line of action
+    lines: dict[str, set] = defaultdict(set)  # task -> the lines of action its rows simulate
+
+    def torques_for(task: str, options: dict | None) -> TorqueLaw3:
+        key = lines_of(options)
+        lines[task].add(key)
+        if key not in torques:
+            torques[key] = TorqueLaw3(key)
+        return torques[key]
     for folder in tqdm(folders, desc="evaluating 3-DOF runs", disable=not progress):
         cfg = json.loads((folder / "config.json").read_text())
         policy, _ = load_policy(str(folder / "policy.pt"))
-        score = score_of(policy, cfg["task"], test_of(cfg["task"]), options=cfg.get("options") or None, law=torques)
+        options = cfg.get("options") or None
+        score = score_of(policy, cfg["task"], test_of(cfg["task"]), options=options,
+                         law=torques_for(cfg["task"], options))
         metrics = json.loads((folder / "metrics.json").read_text()) if (folder / "metrics.json").exists() else {}
         g = groups[(cfg["task"], cfg["algo"].upper(), setting_key(cfg))]
         g[0].append(score)
@@ -156,16 +175,21 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
     for path, policy, meta in agents:  # a shipped agent's record (its source run's metrics) lies beside it
         record = path.with_suffix(".json")
         metrics = json.loads(record.read_text()) if record.exists() else {}
-        score = score_of(policy, meta["task"], test_of(meta["task"]), options=meta.get("options") or None,
-                         law=torques)
+        options = meta.get("options") or None
+        score = score_of(policy, meta["task"], test_of(meta["task"]), options=options,
+                         law=torques_for(meta["task"], options))
         g = groups[(meta["task"], f"{str(meta.get('algo', '')).upper()} (shipped agent {path.stem})", "")]
         g[0].append(score)
         g[1].append(metrics)
     rows = [_row(task, algo + _variant(setting, [s for t, a, s in groups if (t, a) == (task, algo)]),
                  *groups[(task, algo, setting)]) for task, algo, setting in sorted(groups)]
-    for task in sorted({t for t, _, _ in groups if not TASKS_3DOF[t][1]}):  # the continuous tasks' reference
-        score = score_of(ReferenceController3(task), task, test_of(task), law=torques)
-        rows.append(_row(task, "reference controller", [score], []))
+    for task in sorted({t for t, _, _ in groups if not TASKS_3DOF[t][1]}):  # the continuous tasks' reference,
+        for key in sorted(lines[task], reverse=True):  # on each line of action its rows simulate (mjcf first)
+            options = None if key == "mjcf" else {"line_of_action": key}
+            score = score_of(ReferenceController3(task, line_of_action=key), task, test_of(task), options=options,
+                             law=torques_for(task, options))
+            rows.append(_row(task, "reference controller" + ("" if options is None else f" (line_of_action={key})"),
+                             [score], []))
     return rows
 
 

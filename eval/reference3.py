@@ -24,11 +24,12 @@ from shoulder_bench.tendon_law import TendonLaw
 class ReferenceController3:
     """policy(obs (B, 25) float32 tensor) -> changes of activation (B, 13), for `evaluate`."""
 
-    def __init__(self, task: str, muscle_model: str = "fem", kp: float = 60.0, kv: float = 14.0, **options):
+    def __init__(self, task: str, muscle_model: str = "fem", kp: float = 60.0, kv: float = 14.0,
+                 line_of_action: str = "mjcf", **options):
         muscles, discrete, _, _ = TASKS_3DOF[check_name(task)]
         if discrete:
             raise ValueError(f"the reference controller acts continuously; use {task.replace('_discrete', '')}")
-        self.law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS)
+        self.law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS, line_of_action=line_of_action)
         self.pose = full_arm.Pose()
         self.statics = Statics(self.law, self.pose)
         self.kp, self.kv = kp, kv
@@ -46,7 +47,7 @@ class ReferenceController3:
         alpha = self.kv * (dtarget - dq) + self.kp * (target - np.radians(q_deg))
         tau = S.T @ full @ S @ alpha + S.T @ d.qfrc_bias
         ids = [m.actuator(t).id for t in self.law.actuators]
-        L, r = pose.tendon_geometry(q_deg, self.law.actuators)
+        L, r = self.law.geometry(pose, q_deg)
         lo = np.clip(act - protocol.ACTION_LIMIT, 0.0, 1.0)
         hi = np.clip(act + protocol.ACTION_LIMIT, 0.0, 1.0)
         return self.statics.distribute(L[0], r[0], d.actuator_velocity[ids], tau, act, lo, hi)

@@ -11,6 +11,9 @@ MuJoCo's `mjcb_act_gain` / `mjcb_act_bias` are process-global. Two facts shape t
   sees one joint's angle and velocity, chosen per `attach_law` (v1: abduction, v2: shoulder_elv) and kept with the id;
   a length-keyed law (the full shoulder's `tendon_law.TendonLaw`) sees each actuator's tendon length instead.
 
+A law with band corrections (`band_lines`, the full shoulder's line_of_action="band") adds a third callback,
+`mjcb_passive`, always the compiled one (`native.passive`): a Python passive callback would make every compile fail.
+
 Per evaluation MuJoCo calls gain then bias for actuator 0, 1, ... in order; the gain call of the first muscle
 evaluates the law for all muscles at once (one compiled kernel call) and the other calls read that result. The
 callbacks run 8 times per actuator and frame (4 RK4 stages x 2 physics steps), so they keep per-model and per-data
@@ -165,6 +168,10 @@ def install_callbacks(native: bool | None = None) -> None:
         mujoco.set_mjcb_act_gain(gain)
     if mujoco.get_mjcb_act_bias() is not bias:
         mujoco.set_mjcb_act_bias(bias)
+    # the band corrections' passive forces: compiled whichever actuator callbacks (a Python passive callback would,
+    # like the Python actuator callbacks, make every compile fail; it has no way round that, so there is none)
+    if compiled.AVAILABLE and mujoco.get_mjcb_passive() is not compiled.PASSIVE:
+        mujoco.set_mjcb_passive(compiled.PASSIVE)
     _installed[0] = "native" if use else "python"
 
 
@@ -195,12 +202,39 @@ def attach_law(m: mujoco.MjModel, law, joint: str | None = None) -> None:
     if joint is not None:
         jnt = m.joint(joint).id
         qadr, vadr = int(m.jnt_qposadr[jnt]), int(m.jnt_dofadr[jnt])
-    compiled.register(law_id, law, ctrl_of, qadr, vadr)  # complete before actuator_user names the id
+    bands = None if getattr(law, "lines", None) is None else _band_addresses(m, law, names, ctrl_of)
+    compiled.register(law_id, law, ctrl_of, qadr, vadr, bands)  # complete before actuator_user names the id
     _LAWS[law_id] = (law, joint)
     m.actuator_user[:, 0] = law_id
     m.actuator_user[:, 1] = [law.actuators.index(x) if x in law.actuators else -1 for x in names]
     _models.pop(id(m), None)
     _current[0] = (None, None, None, None)
+
+
+def _band_addresses(m: mujoco.MjModel, law, names, ctrl_of) -> tuple:
+    """(actuator of each band tendon, the three coordinates' qpos and dof addresses, nu) for the passive callback;
+    ValueError where the model cannot carry the law's band corrections."""
+    from shoulder_bench import native as compiled
+    from shoulder_bench.full_arm import COORDINATES
+
+    joints = [m.joint(j).name for j in range(m.njnt)]
+    if any(c not in joints for c in COORDINATES):
+        raise ValueError(f"band corrections act about {COORDINATES}; the model's joints are {joints}")
+    acts = np.array([names.index(t) for t in law.lines.tendons])
+    for t, i in zip(law.lines.tendons, acts):
+        # the callbacks take the tension as gain x ctrl + bias with ctrl in [0, 1], the actuator's own activation
+        if not m.actuator_ctrllimited[i] or tuple(m.actuator_ctrlrange[i]) != (0.0, 1.0) or \
+                ctrl_of[law.actuators.index(t)] != i:
+            raise ValueError(f"actuator {t!r}: a band correction needs a ctrl limited to [0, 1] that is its own "
+                             "activation")
+    if not compiled.AVAILABLE:
+        raise RuntimeError(f"band corrections are applied by the compiled passive callback only; {compiled.REASON}")
+    if compiled.model_nu(m) != m.nu:
+        raise RuntimeError(f"the native passive callback would read nu = {compiled.model_nu(m)} for a model with "
+                           f"nu = {m.nu}; band corrections cannot be attached in this MuJoCo {mujoco.__version__}")
+    qadr = np.array([int(m.joint(c).qposadr[0]) for c in COORDINATES])
+    dadr = np.array([int(m.joint(c).dofadr[0]) for c in COORDINATES])
+    return acts, qadr, dadr, m.nu
 
 
 def law_of(m: mujoco.MjModel):

@@ -23,6 +23,12 @@ What a call reads:
   activation (a muscle's first actuator: v2's ld drives ld1-3).
   An id without a row, a column outside the law or a model without user columns gives 0.0.
 
+`passive(m, d)` is the third callback, `mjcb_passive`: for a law attached with band corrections (`band_lines`, the
+3-DOF tasks' line_of_action="band") it adds each band tendon's F c(q) to qfrc_passive on the three glenohumeral
+coordinates, F from `_evaluate` (the actuator's force) and c from `band_lines.band_point`. It also reads mjModel.nu
+and mjData.qfrc_passive, and the law's row points (word BAND) to a band block: the band tendons' actuators, the
+grid, the table, the coordinates' addresses and the nu of the model it was attached to (another nu: nothing added).
+
 The registry: `_ROOT` (fixed for the process; the callbacks find it through the symbol `shoulder_bench_native_root`,
 which is resolved when the cached machine code is loaded, so the cache holds no address) holds the address of the
 current row table; the table's first word is its capacity. Growing allocates a new table, copies the rows and then
@@ -44,17 +50,20 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
+from shoulder_bench.band_lines import band_cells, band_point
 from shoulder_bench.muscle import law_cell, law_point
 
 SYMBOL = "shoulder_bench_native_root"
-ROW = 16  # int64 words per registry row
+ROW = 17  # int64 words per registry row
 # row layout (int64 words; A0 and INV_DA hold float64 bits)
-VALID, FLAT, ARM, LEVELS, NIVS, CTRL_OF, NCOL, NK, NLEV, QADR, VADR, A0, INV_DA, MODE, X0, INV_DX = range(16)
+VALID, FLAT, ARM, LEVELS, NIVS, CTRL_OF, NCOL, NK, NLEV, QADR, VADR, A0, INV_DA, MODE, X0, INV_DX, BAND = range(17)
 JOINT_MODE, LENGTH_MODE = 0, 1  # row[MODE]: the law reads one joint's angle (ForceLaw) or each tendon's length
+# row[BAND]: 0, or the address of a band block (int64 words): the law's band corrections (`band_lines`)
+NB, ACTS, BGRID, BSHAPE, BTABLE, BQADR, BDADR, BNU = range(8)
 # _ROOT layout
-TABLE, M_USER, M_NUSER, D_QPOS, D_QVEL, D_CTRL, D_ALEN, D_AVEL = range(8)
+TABLE, M_USER, M_NUSER, D_QPOS, D_QVEL, D_CTRL, D_ALEN, D_AVEL, M_NU, D_QFRC_PASSIVE = range(10)
 
-_ROOT = np.zeros(8, dtype=np.int64)
+_ROOT = np.zeros(10, dtype=np.int64)
 llvm.add_symbol(SYMBOL, _ROOT.ctypes.data)
 _TABLES: list[np.ndarray] = []  # every row table ever made (the current one last), never freed
 _KEEP: dict[int, tuple] = {}  # law id -> the arrays its row points into
@@ -103,7 +112,7 @@ def _word(address):
 def _evaluate(m, d, i):
     """(gain, bias) of actuator i of model m in data d: -(active per unit activation x FV), -passive (muscles
     pull); (0, 0) where the actuator has no law."""
-    root = numba.carray(_i64p(_root()), 8)
+    root = numba.carray(_i64p(_root()), 10)
     mp, dp = _address(m), _address(d)
     nuser = _word(mp + root[M_NUSER])
     if nuser < 2 or i < 0:  # MuJoCo passes actuator indices, 0 <= i < nu
@@ -156,6 +165,45 @@ def bias(m, d, i):
     return _evaluate(m, d, i)[1]
 
 
+@numba.cfunc(types.void(types.voidptr, types.voidptr), nopython=True, nogil=True, cache=True)
+def passive(m, d):
+    """`mjcb_passive`: add each band tendon's F (r_band - r_MJCF) to qfrc_passive about the three coordinates
+    (`band_lines`); nothing for a model whose law has no band block. F = -(gain a + bias), the actuator force MuJoCo
+    applies along the tendon (a = ctrl in [0, 1], the range `model.attach_law` requires of band actuators)."""
+    root = numba.carray(_i64p(_root()), 10)
+    mp, dp = _address(m), _address(d)
+    nu, nuser = _word(mp + root[M_NU]), _word(mp + root[M_NUSER])
+    if nu < 1 or nuser < 2:
+        return
+    lid = numba.carray(_f64p(_word(mp + root[M_USER])), 1)[0]  # actuator 0's law id: the model's law
+    table = root[TABLE]
+    if not (0.0 < lid < _word(table)) or int(lid) != lid:
+        return
+    row = numba.carray(_i64p(table + 8 * ROW * int(lid)), ROW)
+    if row[VALID] != 1 or row[BAND] == 0:
+        return
+    block = numba.carray(_i64p(row[BAND]), 8)
+    if block[BNU] != nu:  # not the model the law was attached to (a foreign model naming the id in its user data)
+        return
+    nb = block[NB]
+    acts = numba.carray(_i64p(block[ACTS]), nb)
+    grid = numba.carray(_f64p(block[BGRID]), 6)
+    shape = numba.carray(_i64p(block[BSHAPE]), 3)
+    corrections = numba.carray(_f64p(block[BTABLE]), (nb, shape[0], shape[1], shape[2], 3))
+    qadr = numba.carray(_i64p(block[BQADR]), 3)
+    dadr = numba.carray(_i64p(block[BDADR]), 3)
+    qpos = numba.carray(_f64p(_word(dp + root[D_QPOS])), max(qadr[0], qadr[1], qadr[2]) + 1)
+    qfrc = numba.carray(_f64p(_word(dp + root[D_QFRC_PASSIVE])), max(dadr[0], dadr[1], dadr[2]) + 1)
+    ctrl = numba.carray(_f64p(_word(dp + root[D_CTRL])), nu)
+    i0, w0, i1, w1, i2, w2 = band_cells(qpos[qadr[0]], qpos[qadr[1]], qpos[qadr[2]], grid, shape)
+    for b in range(nb):
+        i = acts[b]
+        g, f0 = _evaluate(m, d, i)
+        tension = -(g * min(max(ctrl[i], 0.0), 1.0) + f0)
+        for k in range(3):
+            qfrc[dadr[k]] += tension * band_point(corrections, b, k, i0, w0, i1, w1, i2, w2)
+
+
 # --- the registry ----------------------------------------------------------------------------------------------------
 def _grow(capacity: int) -> np.ndarray:
     """A row table of at least `capacity` rows holding the current rows; made current by one aligned store."""
@@ -173,19 +221,35 @@ _grow(256)
 _REGISTER_LOCK = threading.Lock()
 
 
-def register(law_id: int, law, ctrl_of, qadr: int, vadr: int) -> None:
+def register(law_id: int, law, ctrl_of, qadr: int, vadr: int, bands: tuple | None = None) -> None:
     """Fill row `law_id` for `law` attached to a model: `ctrl_of[c]` is the actuator whose ctrl is column c's
-    activation, (qadr, vadr) the law joint's qpos and dof addresses in that model. Call before the model's
-    `actuator_user` names the id (the row is complete before any callback can read it). Thread-safe: writers hold
-    `_REGISTER_LOCK`, so a table grown by one thread copies every row another has written (callbacks read without
-    it)."""
+    activation, (qadr, vadr) the law joint's qpos and dof addresses in that model; bands: None, or (actuator of each
+    of `law.lines`' tendons, the three coordinates' qpos addresses, their dof addresses, the model's nu) for the
+    passive callback.
+    Call before the model's `actuator_user` names the id (the row is complete before any callback can read it).
+    Thread-safe: writers hold `_REGISTER_LOCK`, so a table grown by one thread copies every row another has written
+    (callbacks read without it)."""
     if law_id < 1:
         raise ValueError(f"law id {law_id} must be >= 1")
     with _REGISTER_LOCK:
-        _register(law_id, law, ctrl_of, qadr, vadr)
+        _register(law_id, law, ctrl_of, qadr, vadr, bands)
 
 
-def _register(law_id: int, law, ctrl_of, qadr: int, vadr: int) -> None:
+def _band_block(lines, bands) -> tuple[np.ndarray, tuple]:
+    """The band block of a row (`passive` reads it) and the arrays it points into."""
+    acts, qadr, dadr = (np.ascontiguousarray(x, dtype=np.int64) for x in bands[:3])
+    arrays = (acts, np.ascontiguousarray(lines.grid, dtype=np.float64), np.ascontiguousarray(lines.shape),
+              lines.table, qadr, dadr)
+    if acts.shape != (len(lines.tendons),) or qadr.shape != (3,) or dadr.shape != (3,):
+        raise ValueError("inconsistent band arrays for the native callback")
+    block = np.zeros(8, dtype=np.int64)
+    block[NB], block[BNU] = len(acts), bands[3]
+    block[ACTS], block[BGRID], block[BSHAPE], block[BTABLE], block[BQADR], block[BDADR] = (
+        x.ctypes.data for x in arrays)
+    return block, arrays
+
+
+def _register(law_id: int, law, ctrl_of, qadr: int, vadr: int, bands: tuple | None) -> None:
     table = _TABLES[-1]
     while law_id >= len(table):
         table = _grow(2 * len(table))
@@ -206,7 +270,12 @@ def _register(law_id: int, law, ctrl_of, qadr: int, vadr: int) -> None:
     row[MODE] = LENGTH_MODE if length_mode else JOINT_MODE
     if not length_mode:
         row[A0:INV_DA + 1] = np.array([a0, inv_da], dtype=np.float64).view(np.int64)
-    _KEEP[law_id] = (*arrays, ctrl_of, law)
+    kept = (*arrays, ctrl_of, law)
+    if bands is not None:
+        block, band_arrays = _band_block(law.lines, bands)
+        row[BAND] = block.ctypes.data
+        kept += (block, *band_arrays)
+    _KEEP[law_id] = kept
     table[law_id, 1:] = row[1:]
     table[law_id, VALID] = 1  # last: a reader sees a complete row or none
 
@@ -246,13 +315,17 @@ def _matches(address: int, value: int, pointer: bool) -> list[int]:
 
 
 def find_offsets() -> dict[str, int]:
-    """Byte offsets of mjModel.actuator_user / nuser_actuator and mjData.qpos / qvel / ctrl in this MuJoCo,
-    from three probe models of different sizes; RuntimeError if a field is not found at one offset in all three."""
+    """Byte offsets of mjModel.actuator_user / nuser_actuator / nu and mjData.qpos / qvel / ctrl / actuator_length /
+    actuator_velocity / qfrc_passive in this MuJoCo, from three probe models of different sizes; RuntimeError if a
+    field is not found at one offset in all three. nu: the first size field equal to the probes' actuator count
+    (mjModel's nu precedes nactuator and nout, which equal it for the single-output actuators of these models;
+    `model.attach_law` checks the offset against each model it attaches band corrections to)."""
     found: dict[str, set] = {}
     for joints, actuators, nuser in _PROBES:
         m, d = _probe(joints, actuators, nuser)
         targets = {"actuator_user": (m._address, m.actuator_user.ctypes.data, True),
-                   "nuser_actuator": (m._address, nuser, False),
+                   "nuser_actuator": (m._address, nuser, False), "nu": (m._address, m.nu, False),
+                   "qfrc_passive": (d._address, d.qfrc_passive.ctypes.data, True),
                    "qpos": (d._address, d.qpos.ctypes.data, True), "qvel": (d._address, d.qvel.ctypes.data, True),
                    "ctrl": (d._address, d.ctrl.ctypes.data, True),
                    "actuator_length": (d._address, d.actuator_length.ctypes.data, True),
@@ -260,6 +333,7 @@ def find_offsets() -> dict[str, int]:
         for name, (address, value, pointer) in targets.items():
             hits = set(_matches(address, value, pointer))
             found[name] = hits if name not in found else found[name] & hits
+    found["nu"] = {min(found["nu"])} if found["nu"] else found["nu"]
     bad = [name for name, hits in found.items() if len(hits) != 1]
     if bad:
         raise RuntimeError(f"MuJoCo {mujoco.__version__}: the struct offsets of {bad} were not found uniquely "
@@ -271,11 +345,17 @@ try:
     OFFSETS = find_offsets()
     AVAILABLE, REASON = True, ""
     _ROOT[M_USER], _ROOT[M_NUSER] = OFFSETS["actuator_user"], OFFSETS["nuser_actuator"]
-    _ROOT[D_QPOS], _ROOT[D_QVEL], _ROOT[D_CTRL], _ROOT[D_ALEN], _ROOT[D_AVEL] = (
-        OFFSETS[k] for k in ("qpos", "qvel", "ctrl", "actuator_length", "actuator_velocity"))
+    _ROOT[D_QPOS], _ROOT[D_QVEL], _ROOT[D_CTRL], _ROOT[D_ALEN], _ROOT[D_AVEL], _ROOT[M_NU], _ROOT[D_QFRC_PASSIVE] = (
+        OFFSETS[k] for k in ("qpos", "qvel", "ctrl", "actuator_length", "actuator_velocity", "nu", "qfrc_passive"))
 except Exception as exc:  # noqa: BLE001 - any failure means: use the Python callbacks
     OFFSETS, AVAILABLE, REASON = {}, False, f"native muscle callback unavailable: {exc}"
 
 # ctypes function pointers of the callbacks (kept here: MuJoCo holds only the raw address)
 GAIN = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int)(gain.address)
 BIAS = ctypes.CFUNCTYPE(ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int)(bias.address)
+PASSIVE = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)(passive.address)
+
+
+def model_nu(m: mujoco.MjModel) -> int:
+    """nu as the passive callback reads it from `m` (at OFFSETS["nu"])."""
+    return int(_words(m._address + OFFSETS["nu"], 8)[0])

@@ -52,7 +52,7 @@ class Statics:
     def solve(self, pose_deg, torque: np.ndarray, start: np.ndarray | None = None) -> tuple[np.ndarray, float]:
         """(activations (muscles,), largest |residual| N m) of least effort that produce `torque` (3,) at rest at
         `pose_deg`."""
-        L, r = self.pose.tendon_geometry(np.asarray(pose_deg, dtype=float), self.law.actuators)
+        L, r = self.law.geometry(self.pose, np.asarray(pose_deg, dtype=float))
         L, r = L[0], r[0]
         n = len(self.law.muscles)
         x0 = np.full(n, 0.05) if start is None else np.clip(start, 0.0, 1.0)

@@ -110,13 +110,20 @@ class TendonLaw:
         self.inv_dx = np.array([1.0 / (t.length_m[1] - t.length_m[0]) for t in tables])
         self._neg_inv_vscale = -1.0 / np.array([VMAX_LOPT_PER_S * float(t.meta["optimal_fibre_length_m"])
                                                 for t in tables])
+        self.lines = None  # band_lines.BandLines: the tendons that act along their band's line (None: MJCF paths)
 
     @classmethod
     def load(cls, muscle_model: str = "fem", tendons=None, folder: Path | None = None,
-             groups: dict | None = None) -> TendonLaw:
+             groups: dict | None = None, line_of_action: str = "mjcf") -> TendonLaw:
         """The law of `tendons` (default all of the full shoulder's) from `<folder>/<tendon>_<muscle_model>.npz`
-        (default models/muscles_full)."""
+        (default models/muscles_full). line_of_action "band": those of its tendons with a band table
+        (`band_lines.BAND_TENDONS`, `<folder>/<tendon>_band.npz`) act along the FEM band's line, the others along
+        their MJCF paths; "mjcf" (default): all along their MJCF paths."""
+        from shoulder_bench.band_lines import BAND_TENDONS, LINES, BandLines
         from shoulder_bench.full_arm import TENDONS
+
+        if line_of_action not in LINES:
+            raise ValueError(f"line_of_action {line_of_action!r}: choose one of {', '.join(LINES)}")
 
         check_muscle_model(muscle_model)
         names = tuple(TENDONS if tendons is None else tendons)
@@ -127,7 +134,10 @@ class TendonLaw:
             if table.muscle != t:
                 raise ValueError(f"muscle table {p} is for {table.muscle!r}, not {t!r}")
             tables.append(table)
-        return cls(tables, groups)
+        law = cls(tables, groups)
+        if line_of_action == "band":
+            law.lines = BandLines.load([t for t in names if t in BAND_TENDONS], folder)
+        return law
 
     def scaled(self, factors: dict[str, float]) -> TendonLaw:
         """A new law with each muscle's tables scaled by `factors[muscle]` (as `ForceLaw.scaled`)."""
@@ -138,9 +148,20 @@ class TendonLaw:
         if bad:
             raise ValueError(f"muscle force factors must be finite numbers >= 0; got {bad}")
         per = {a: float(f) for m, f in factors.items() for a in self.groups[m]}
-        return TendonLaw([t if per.get(t.muscle, 1.0) == 1.0 else dataclasses.replace(
+        law = TendonLaw([t if per.get(t.muscle, 1.0) == 1.0 else dataclasses.replace(
             t, force_N=t.force_N * per[t.muscle], meta={**t.meta, "force_factor": per[t.muscle]})
             for t in self.tables], self.groups)
+        law.lines = self.lines
+        return law
+
+    def geometry(self, pose, poses_deg) -> tuple[np.ndarray, np.ndarray]:
+        """(lengths (P, n) m, moment arms (P, n, 3) m about plane, elevation, rotation) of the law's tendons at
+        `poses_deg` (P, 3) on `pose` (a `full_arm.Pose`): the MJCF paths', plus the band corrections where the law
+        has them (`lines`): the arms the muscles act with in MuJoCo."""
+        L, r = pose.tendon_geometry(poses_deg, self.actuators)
+        if self.lines is not None:
+            r[:, [self.actuators.index(t) for t in self.lines.tendons]] += self.lines.correction(poses_deg)
+        return L, r
 
     def kernel_arguments(self) -> tuple:
         """(flat table, arms (K, n) of -1, activation levels, first knot per tendon (m), 1 / knot step per tendon,

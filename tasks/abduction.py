@@ -123,6 +123,8 @@ class Abduction(control.Task):
                  activation_dynamics=False, randomize=None, fatigue=False, random=None, **unknown):
         super().__init__()
         opt.check_names(unknown)
+        if unknown:  # options of the 3-DOF tasks only
+            raise ValueError(f"option(s) {sorted(unknown)} apply to the 3-DOF tasks only")
         self.muscles = tuple(muscles)
         self.discrete = bool(discrete)
         self.split = opt.choice("split", split, tuple(trajectory.SPLITS))

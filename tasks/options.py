@@ -39,6 +39,9 @@ OPTIONS = {
                  "U[LO, HI] kg at the elbow; keys left out are not randomised)",
     "fatigue": "False, True or a dict of 3CC-r parameters F, R, r, LD, LR: per-muscle fatigue, the residual "
                "capacity 1 - M_F caps the activation",
+    "line_of_action": "'mjcf' or 'band' (3-DOF tasks only): 'band' makes ssp, isp, tmi, tma and pec1 act along their "
+                      "FEM footprint sheet's line of action (shoulder_bench.band_lines), the others along their MJCF "
+                      "paths",
 }
 
 # each option's default, as `shoulder-bench tasks --options` shows it (None where the task decides)
@@ -46,13 +49,14 @@ DEFAULTS = {"split": "train", "seed": None, "trajectory": None, "muscle_model": 
             "alpha": protocol.DEFAULT_ALPHA, "omega_max": protocol.DEFAULT_OMEGA_MAX, "tracking_only": None,
             "init": "hold", "joint_damping": 0.0, "delay_frames": 0, "obs_noise_deg": 0.0, "condition": None,
             "tear_fraction": None, "weakness_fraction": None, "activation_dynamics": False, "randomize": None,
-            "fatigue": False}
+            "fatigue": False, "line_of_action": "mjcf"}
 
 
 # the options a command line may set with --option KEY=VALUE (split, seed, trajectory and muscle model have flags of
 # their own or are the command's to choose)
 COMMAND_LINE = ("alpha", "omega_max", "tracking_only", "init", "joint_damping", "delay_frames", "obs_noise_deg",
-                "condition", "tear_fraction", "weakness_fraction", "activation_dynamics", "randomize", "fatigue")
+                "condition", "tear_fraction", "weakness_fraction", "activation_dynamics", "randomize", "fatigue",
+                "line_of_action")
 
 
 def assignments(pairs, flag: str = "--option", valid=COMMAND_LINE) -> dict:

@@ -25,7 +25,7 @@ from dm_control.rl import control
 from dm_control.rl.control import PhysicsError
 from dm_env import specs
 
-from shoulder_bench import full_arm, protocol, statics_full, trajectory, trajectory3
+from shoulder_bench import band_lines, full_arm, protocol, statics_full, trajectory, trajectory3
 from shoulder_bench.model import attach_law, install_callbacks
 from shoulder_bench.tasks import options as opt
 from shoulder_bench.tendon_law import TendonLaw
@@ -34,7 +34,7 @@ VALID_MARGIN_DEG = 30.0  # as the 1-DOF tasks' (arm.VALID_MARGIN_DEG)
 WORKSPACES = ("3dof", "scapular_plane")
 SCAPULAR_PLANE_DEG = 30.0
 INITS = ("hold", "zero")
-OPTIONS = ("alpha", "omega_max", "init", "workspace", "muscle_model")  # what the 3-DOF tasks accept
+OPTIONS = ("alpha", "omega_max", "init", "workspace", "muscle_model", "line_of_action")  # what the 3-DOF tasks accept
 
 
 def scapular(elevation_deg, name: str = "") -> trajectory3.Trajectory3:
@@ -109,7 +109,7 @@ class Track3D(control.Task):
 
     def __init__(self, muscles=full_arm.MUSCLES, discrete=False, split="train", trajectory_=None,
                  alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", workspace="3dof",
-                 random=None, **unknown):
+                 line_of_action="mjcf", random=None, **unknown):
         super().__init__()
         if unknown:
             raise ValueError(f"option(s) {sorted(unknown)} are not offered on the 3-DOF tasks (yet); they accept "
@@ -121,6 +121,7 @@ class Track3D(control.Task):
         self.omega_max = opt.number("omega_max", omega_max, 0.0)
         self.init = opt.choice("init", init, INITS)
         self.workspace = opt.choice("workspace", workspace, WORKSPACES)
+        self.line_of_action = opt.choice("line_of_action", line_of_action, band_lines.LINES)
         self.fixed = trajectory_
         self.rng = np.random.default_rng(opt.seed(random))
         self.target: trajectory3.Trajectory3 | None = None
@@ -199,8 +200,8 @@ class Track3D(control.Task):
         return None
 
 
-def make_physics(muscle_model: str = "fem") -> Physics3:
-    law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS)
+def make_physics(muscle_model: str = "fem", line_of_action: str = "mjcf") -> Physics3:
+    law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS, line_of_action=line_of_action)
     model = full_arm.compile_full()
     attach_law(model, law)
     install_callbacks()
@@ -216,5 +217,5 @@ def make_env(muscles, discrete=False, split="train", seed=None, trajectory=None,
         raise ValueError(f"muscle_model {muscle_model!r}: the full shoulder has FEM tables only ('fem')")
     task = Track3D(muscles, discrete=discrete, split=split, trajectory_=trajectory3.as_trajectory(trajectory),
                    random=seed, **options)
-    return control.Environment(make_physics(muscle_model), task, time_limit=float("inf"),
+    return control.Environment(make_physics(muscle_model, task.line_of_action), task, time_limit=float("inf"),
                                control_timestep=protocol.FRAME_S)

@@ -46,7 +46,7 @@ class VecEnv3(Lockstep):
         self.muscles, self.discrete, self.n = tuple(muscles), discrete, len(muscles)
         self.num_actions = self.n
         self.cfg = {"task": name, "muscle_model": muscle_model, **options}
-        self.law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS)
+        self.law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS, line_of_action=self.task.line_of_action)
         # MuJoCo's RK4 with the compiled callbacks, one rollout per frame (the law reads each tendon's length)
         self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread, path=full_arm.MODEL_FILE,
                                   prepare=harden_couplings, engine="mujoco")

@@ -7,7 +7,7 @@ import pytest
 from mujoco import rollout
 
 import shoulder_bench
-from shoulder_bench import arm, native
+from shoulder_bench import arm, full_arm, native
 from shoulder_bench.model import attach_law, compile_model, install_callbacks, installed_callbacks, load_model
 from shoulder_bench.muscle import ForceLaw
 from shoulder_bench.tasks import TASKS
@@ -21,11 +21,14 @@ def _restore_default_callbacks():
 
 def test_offsets_are_found_and_native_is_the_default():
     assert native.AVAILABLE, native.REASON
-    assert set(native.OFFSETS) == {"actuator_user", "nuser_actuator", "qpos", "qvel", "ctrl", "actuator_length",
-                                   "actuator_velocity"}
+    assert set(native.OFFSETS) == {"actuator_user", "nuser_actuator", "nu", "qpos", "qvel", "ctrl", "actuator_length",
+                                   "actuator_velocity", "qfrc_passive"}
     assert native.find_offsets() == native.OFFSETS  # the same again, from fresh probes
     install_callbacks()
     assert installed_callbacks() == "native" and mujoco.get_mjcb_act_gain() is native.GAIN
+    assert mujoco.get_mjcb_passive() is native.PASSIVE
+    m = mujoco.MjModel.from_xml_path(str(full_arm.MODEL_FILE))
+    assert native.model_nu(m) == m.nu == 15
 
 
 def _episode(name: str, use_native: bool) -> np.ndarray:

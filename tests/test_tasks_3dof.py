@@ -268,6 +268,10 @@ def test_board_rows_of_different_settings_do_not_pool():
     a = json.dumps({"config": {"error_features": True, "lr": 1}, "options": {}}, sort_keys=True)
     b = json.dumps({"config": {"error_features": False, "lr": 1}, "options": {}}, sort_keys=True)
     assert _variant(a, [a, b]) == " (error_features=True)" and _variant(b, [a]) == ""
+    c = json.dumps({"config": {"error_features": True, "lr": 1}, "options": {"line_of_action": "band"}},
+                   sort_keys=True)  # a task option is named even where the row is alone
+    assert _variant(c, [c]) == " (line_of_action=band)"
+    assert _variant(c, [a, c]) == " (line_of_action=band)"
 
 
 def test_board_pools_seeds_of_one_setting():

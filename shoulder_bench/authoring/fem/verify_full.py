@@ -91,40 +91,65 @@ def held_out(law, pose: full_arm.Pose, coarse: bool = False, tendons=None) -> li
     return checks
 
 
-def applied_vs_fem(folder: Path | None = None) -> list[Check]:
-    from shoulder_bench.model import attach_law, install_callbacks
+def applied_vs_fem(folder: Path | None = None, line_of_action: str = "mjcf", muscles=None) -> list[Check]:
+    """Section 2: each muscle alone (`muscles`, default all), MuJoCo's applied generalised force against the FEM's at
+    every grid pose and level. line_of_action "band": the band tendons (`band_lines.BAND_TENDONS`), each acting along
+    its band (`fem verify --bands`; the band tables from `folder`, the force tables from models/muscles_full, as
+    the held-out check takes them), against F(L(q), a) times the band's own moment arms at its table's grid poses."""
+    from shoulder_bench.band_lines import AXES, BAND_TENDONS, BandLines, read_table, table_path
     from shoulder_bench.tendon_law import TendonLaw
 
-    poses = full_arm.pose_grid()
+    if line_of_action == "mjcf":
+        return [c for muscle in muscles or full_arm.ACTUATORS for c in applied_checks(
+            TendonLaw.load("fem", full_arm.ACTUATORS[muscle], folder, groups={muscle: full_arm.ACTUATORS[muscle]}),
+            muscle, full_arm.pose_grid())]
     checks = []
-    for muscle, tendons in full_arm.ACTUATORS.items():
-        law = TendonLaw.load("fem", tendons, folder, groups={muscle: tendons})
-        m = full_arm.compile_full()
-        attach_law(m, law)
-        install_callbacks()
-        pose, d = full_arm.Pose(m), mujoco.MjData(m)
-        L, r = pose.tendon_geometry(poses, tendons)
-        qpos = pose.qpos(poses)
-        levels = law.levels
-        ids = [m.actuator(t).id for t in tendons]
-        applied, table = np.zeros((len(poses), len(levels), 3)), np.zeros((len(poses), len(levels), 3))
-        for j, a in enumerate(levels):
-            f = law.force(L, np.zeros_like(L), np.full((len(poses), 1), a))  # (P, n)
-            table[:, j] = np.einsum("pn,pnk->pk", f, r)
-            d.ctrl[:] = 0.0
-            d.ctrl[ids] = a
-            for p in range(len(poses)):
-                d.qpos[:], d.qvel[:] = qpos[p], 0.0
-                mujoco.mj_forward(m, d)
-                applied[p, j] = pose.slopes(poses[p]).T @ d.qfrc_actuator
-        peak = np.abs(table).max(axis=(0, 1))
-        for k in range(3):
-            err = np.abs(applied[..., k] - table[..., k])
-            p, j = np.unravel_index(int(np.argmax(err)), err.shape)
-            checks.append((f"{muscle} {LABELS[k]}: MuJoCo-applied vs FEM at all {err.size} grid poses x levels",
-                           bool(err.max() <= APPLIED_TOL * peak[k]),
-                           f"max |error| {err.max():.2e} N m = {100 * err.max() / peak[k]:.2e} % of its peak "
-                           f"{peak[k]:.2f} N m (at {tuple(int(x) for x in poses[p])} deg, a = {levels[j]:g})"))
+    for t in muscles or BAND_TENDONS:
+        law = TendonLaw.load("fem", (t,))
+        law.lines = BandLines.load((t,), folder)
+        arrays = read_table(table_path(t, folder))[0]
+        poses = np.stack(np.meshgrid(*(arrays[k] for k in AXES), indexing="ij"), axis=-1).reshape(-1, 3)
+        checks += applied_checks(law, t, poses, arrays["moment_arm_m"].reshape(-1, 1, 3))
+    return checks
+
+
+def applied_checks(law, muscle: str, poses: np.ndarray, arms: np.ndarray | None = None) -> list[Check]:
+    """`law` (one muscle's) attached to the full shoulder: S^T (qfrc_actuator + the passive callback's band forces)
+    at `poses` (P, 3) deg and every level against F(L(q), a) times `arms` (P, tendons, 3), default the MJCF tendons'
+    arms; bound APPLIED_TOL of the muscle's peak |torque| in each coordinate."""
+    from shoulder_bench.model import attach_law, install_callbacks
+
+    m = full_arm.compile_full()
+    attach_law(m, law)
+    install_callbacks()
+    pose, d = full_arm.Pose(m), mujoco.MjData(m)
+    L, r = pose.tendon_geometry(poses, law.actuators)
+    r = r if arms is None else arms
+    qpos = pose.qpos(poses)
+    levels = law.levels
+    ids = [m.actuator(t).id for t in law.actuators]
+    applied, table = np.zeros((len(poses), len(levels), 3)), np.zeros((len(poses), len(levels), 3))
+    for j, a in enumerate(levels):
+        f = law.force(L, np.zeros_like(L), np.full((len(poses), 1), a))  # (P, n)
+        table[:, j] = np.einsum("pn,pnk->pk", f, r)
+        d.ctrl[:] = 0.0
+        d.ctrl[ids] = a
+        for p in range(len(poses)):
+            d.qpos[:], d.qvel[:] = qpos[p], 0.0
+            mujoco.mj_forward(m, d)
+            # the passive callback's forces: qfrc_passive less MuJoCo's own passive terms
+            band = d.qfrc_passive - d.qfrc_spring - d.qfrc_damper - d.qfrc_gravcomp - d.qfrc_fluid
+            applied[p, j] = pose.slopes(poses[p]).T @ (d.qfrc_actuator + band)
+    peak = np.abs(table).max(axis=(0, 1))
+    checks = []
+    for k in range(3):
+        err = np.abs(applied[..., k] - table[..., k])
+        p, j = np.unravel_index(int(np.argmax(err)), err.shape)
+        checks.append((f"{muscle} {LABELS[k]}: MuJoCo-applied vs FEM at all {len(poses)} grid poses x {len(levels)} "
+                       "levels",
+                       bool(err.max() <= APPLIED_TOL * peak[k]),
+                       f"max |error| {err.max():.2e} N m = {100 * err.max() / peak[k]:.2e} % of its peak "
+                       f"{peak[k]:.2f} N m (at {tuple(int(x) for x in poses[p])} deg, a = {levels[j]:g})"))
     return checks
 
 

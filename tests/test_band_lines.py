@@ -1,0 +1,129 @@
+"""The band tables applied in MuJoCo (shoulder_bench/band_lines.py, the passive callbacks; the 3-DOF tasks'
+line_of_action="band"): the correction read as scipy reads the tables, the compiled and the Python callbacks alike,
+the applied generalised force the band's, rollout's threads as mj_step, the statics and the options."""
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+import torch
+
+import shoulder_bench
+from shoulder_bench import full_arm, protocol
+from shoulder_bench.band_lines import BAND_TENDONS, BandLines, table_path
+from shoulder_bench.model import attach_law, install_callbacks
+from shoulder_bench.tendon_law import TendonLaw
+
+POSE = np.array([37.0, 63.0, 11.0])  # deg, between grid poses in every coordinate
+
+
+def _forward(law, pose_deg, activation: float, native: bool = True):
+    """mj_forward at a pose with every muscle at `activation`; native=False: the Python actuator callbacks (the
+    band forces come from the compiled passive callback either way)."""
+    m = full_arm.compile_full()
+    attach_law(m, law)
+    install_callbacks(native=native)
+    try:
+        pose, d = full_arm.Pose(m), mujoco.MjData(m)
+        d.qpos[:] = pose.qpos(pose_deg)[0]
+        d.ctrl[:] = activation
+        mujoco.mj_forward(m, d)
+    finally:
+        install_callbacks()
+    return m, d, pose
+
+
+def test_the_correction_is_the_tables_read_trilinearly():
+    from shoulder_bench.authoring.fem.bands import BandTable
+
+    lines = BandLines.load()
+    rng = np.random.default_rng(0)
+    lo, hi = np.array([0.0, 0.0, -45.0]), np.array([90.0, 140.0, 60.0])
+    poses = lo + (hi - lo) * rng.random((200, 3))
+    got = lines.correction(poses)
+    for b, t in enumerate(BAND_TENDONS):
+        np.testing.assert_allclose(got[:, b], BandTable(table_path(t)).correction(poses), rtol=0, atol=1e-12)
+    # beyond the grid: its edge values
+    np.testing.assert_allclose(lines.correction([[-30.0, 70.0, 200.0]]), lines.correction([[0.0, 70.0, 60.0]]),
+                               atol=1e-8)
+
+
+def test_mujoco_applies_the_band_line_of_action_with_either_callback():
+    law = TendonLaw.load("fem", groups=full_arm.ACTUATORS, line_of_action="band")
+    m, d, pose = _forward(law, POSE, 0.4)
+    _, d_python, _ = _forward(law, POSE, 0.4, native=False)
+    _, d_mjcf, _ = _forward(TendonLaw.load("fem", groups=full_arm.ACTUATORS), POSE, 0.4)
+    np.testing.assert_allclose(d_python.qfrc_passive, d.qfrc_passive, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(d_python.qacc, d.qacc, rtol=1e-9, atol=1e-9)
+    S = pose.slopes(POSE)
+    band = S.T @ (d.qfrc_passive - d_mjcf.qfrc_passive)
+    assert np.abs(band).max() > 0.05  # N m: the corrections matter at this pose
+    # the whole generalised force is sum_t F_t (r_MJCF + c_t), the bands' arms for their tendons
+    L, r = law.geometry(pose, POSE)
+    f = law.force(L, np.zeros_like(L), np.full((1, len(law.muscles)), 0.4))[0]
+    own = d.qfrc_passive - d.qfrc_spring - d.qfrc_damper - d.qfrc_gravcomp - d.qfrc_fluid
+    np.testing.assert_allclose(S.T @ (d.qfrc_actuator + own), f @ r[0], rtol=1e-9)
+    cols = [law.actuators.index(t) for t in BAND_TENDONS]
+    np.testing.assert_allclose(band, f[cols] @ law.lines.correction(POSE)[0], rtol=1e-9)
+
+
+def test_the_applied_check_passes_with_the_bands_and_fails_without():
+    from shoulder_bench.authoring.fem.verify_full import applied_checks, applied_vs_fem
+
+    assert all(ok for _, ok, _ in applied_vs_fem(line_of_action="band", muscles=("tmi",)))
+    with np.load(table_path("tmi")) as z:
+        arms = z["moment_arm_m"].reshape(-1, 1, 3)
+    checks = applied_checks(TendonLaw.load("fem", ("tmi",)), "tmi", full_arm.pose_grid(), arms)  # MJCF line only
+    assert not all(ok for _, ok, _ in checks)
+
+
+def test_the_batched_env_follows_the_single_env_with_the_bands():
+    env = shoulder_bench.load("track_3dof", split="test", seed=5, line_of_action="band")
+    ts = env.reset()
+    venv = shoulder_bench.make_vec("track_3dof", 2, seed=5, split="test", line_of_action="band")
+    try:
+        rng = np.random.default_rng(1)
+        for _ in range(20):
+            a = rng.uniform(-0.012, 0.012, (2, len(full_arm.MUSCLES)))
+            ts = env.step(a[0])
+            obs, _, done, _ = venv.step(torch.as_tensor(a))
+            np.testing.assert_allclose(obs["policy"].numpy()[0], protocol.flatten(ts.observation), atol=1e-4)
+            assert not done.any()
+    finally:
+        venv.close()
+
+
+def test_the_holding_activations_hold_the_arm_with_the_bands():
+    from shoulder_bench.statics_full import Statics
+
+    law = TendonLaw.load("fem", groups=full_arm.ACTUATORS, line_of_action="band")
+    st = Statics(law)
+    for pose_deg in ([30, 30, -20], [70, 90, 30]):
+        a, residual = st.holding(pose_deg)
+        assert residual < 1e-3
+        m = full_arm.compile_full()
+        attach_law(m, law)
+        install_callbacks()
+        d = mujoco.MjData(m)
+        d.qpos[:] = st.pose.qpos(pose_deg)[0]
+        for k, muscle in enumerate(law.muscles):
+            d.ctrl[[m.actuator(t).id for t in law.groups[muscle]]] = a[k]
+        mujoco.mj_forward(m, d)
+        net = st.pose.slopes(pose_deg).T @ (d.qfrc_actuator + d.qfrc_passive - d.qfrc_bias)
+        assert np.abs(net).max() < 0.01  # N m: at rest (the joints' own springs and dampers are zero here)
+
+
+def test_line_of_action_option_errors():
+    with pytest.raises(ValueError, match="line_of_action must be one of 'mjcf', 'band'"):
+        shoulder_bench.load("track_3dof", line_of_action="fem")
+    with pytest.raises(ValueError, match="3-DOF tasks only"):
+        shoulder_bench.load("abduction_4m", line_of_action="band")
+    from shoulder_bench.tasks import check_options
+
+    assert check_options("track_3dof", line_of_action="band") == {"line_of_action": "band"}
+    with pytest.raises(ValueError, match="abduction"):  # a band law on a model without the three coordinates
+        from shoulder_bench.model import compile_model
+
+        law = TendonLaw.load("fem", ("ssp",))
+        law.lines = BandLines.load(("ssp",))
+        attach_law(compile_model(), law)
