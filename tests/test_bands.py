@@ -54,6 +54,15 @@ def test_bad_requests_are_refused_before_any_solve(tmp_path, capsys):
         fem_main(["verify", "--held-out", "3"])
     assert bands.verify(tmp_path, quiet=True) == 1  # an empty folder
     assert "no band tables" in capsys.readouterr().out
+    with pytest.raises(SystemExit, match="must be >= 0"):
+        fem_main(["verify", "--bands", "--held-out", "-1"])
+
+
+def test_held_out_0_checks_only_what_mujoco_applies(capsys):
+    """The shipped tmi table: no re-solve, the applied-vs-FEM section over its whole grid (840 poses x 6 levels)."""
+    assert fem_main(["verify", "--bands", "--tendon", "tmi", "--held-out", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "0 held-out poses" in out and "tmi rotation: MuJoCo-applied vs FEM at all 840 grid poses x 6 levels" in out
 
 
 def test_an_unsolved_grid_pose_takes_its_solved_neighbours_correction(cell, monkeypatch, tmp_path):

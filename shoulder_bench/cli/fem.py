@@ -91,9 +91,9 @@ def _verify(args) -> int:
 
         poses = None
         if args.held_out is not None:  # a subset drawn with a fixed seed: the grid check's cells
-            if args.held_out < 1:
-                raise SystemExit(f"shoulder-bench fem verify: error: --held-out must be >= 1, not {args.held_out}")
-            poses = cells(min(args.held_out, len(held_out_poses())))[0]
+            if args.held_out < 0:
+                raise SystemExit(f"shoulder-bench fem verify: error: --held-out must be >= 0, not {args.held_out}")
+            poses = cells(min(args.held_out, len(held_out_poses())))[0] if args.held_out else ()
         unknown = [t for t in args.tendon or () if t not in bands.FOOTPRINT_TENDONS]
         if unknown:
             raise SystemExit(f"shoulder-bench fem verify: error: no band table for {', '.join(unknown)}; choose from "
@@ -181,7 +181,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "taut bands re-solved at held-out poses against the tables")
     v.add_argument("--tendon", action="append", help="with --bands: only this tendon (repeatable)")
     v.add_argument("--held-out", type=int, default=None, metavar="N",
-                   help="with --bands: N held-out poses drawn with a fixed seed (default: all 588)")
+                   help="with --bands: N held-out poses drawn with a fixed seed (default: all 588; 0: none, only "
+                   "the check of what MuJoCo applies)")
     v.add_argument("--interpolation", choices=("linear", "cubic"), default="linear",
                    help="with --bands: the tables read trilinearly (the scheme) or by a tricubic spline")
     v.set_defaults(func=_verify)

@@ -214,13 +214,18 @@ def _write(path: Path, grid: dict, meta: dict) -> None:
 
 def verify(folder: Path | None = None, tendons=None, resolution: str | None = None, poses=None,
            quiet: bool = False, interpolation: str = "linear") -> int:
-    """Re-solve the taut band at held-out poses (default: all of `verify_full.held_out_poses`, halfway between the
-    grid's poses in every coordinate) against the scheme. Per coordinate the torque error at a = 1,
-    F(L_MT(q), 1) |r_MJCF(q) + c(q) - r_band(q)|, in % of the tendon's peak |F(L_MT, 1) r_band| over the grid's poses
-    (F: the length-keyed FEM table, `tendon_law`; a = 1 is where the error and the peak are largest); exit status 1
-    when any exceeds `verify_full.HELD_OUT_TOL`. resolution: the sheets' (default: the table's own). interpolation:
-    the tables' (`BandTable`)."""
-    from shoulder_bench.authoring.fem.verify_full import HELD_OUT_TOL, held_out_poses
+    """Two sections, each able to fail (exit status 1):
+    1. The taut band re-solved at held-out poses (default: all of `verify_full.held_out_poses`, halfway between the
+       grid's poses in every coordinate; `poses` of length 0: none) against the scheme. Per coordinate the torque
+       error at a = 1, F(L_MT(q), 1) |r_MJCF(q) + c(q) - r_band(q)|, in % of the tendon's peak |F(L_MT, 1) r_band|
+       over the grid's poses (F: the length-keyed FEM table, `tendon_law`; a = 1 is where the error and the peak are
+       largest); bound `verify_full.HELD_OUT_TOL`. resolution: the sheets' (default: the table's own).
+       interpolation: the tables' (`BandTable`).
+    2. What MuJoCo applies with the tables (the task option line_of_action="band", `band_lines`): each tendon alone,
+       at every grid pose and activation level, against F(L(q), a) r_band(q) (`verify_full.applied_vs_fem`); bound
+       `verify_full.APPLIED_TOL`."""
+    from shoulder_bench.authoring.fem.verify import report
+    from shoulder_bench.authoring.fem.verify_full import APPLIED_TOL, HELD_OUT_TOL, applied_vs_fem, held_out_poses
     from shoulder_bench.tendon_law import TendonLaw
 
     folder = Path(folder or full_arm.TABLE_FOLDER)
@@ -228,12 +233,12 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
     if not names:
         print(f"no band tables in {folder}; build them with `shoulder-bench fem build --bands`")
         return 1
-    held = held_out_poses() if poses is None else np.atleast_2d(np.asarray(poses, float))
+    held = held_out_poses() if poses is None else np.asarray(poses, float).reshape(-1, 3)
     pose, failed = full_arm.Pose(), []
     print(f"band tables in {folder} ({interpolation}): {len(held)} held-out poses re-solved per tendon; error at "
           f"a = 1 in % of the tendon's peak |torque| over the grid (bound {HELD_OUT_TOL * 100:g} %): plane, "
           "elevation, rotation")
-    for t in names:
+    for t in names if len(held) else ():
         table = BandTable(table_path(t, folder), interpolation)
         law = TendonLaw.load("fem", tendons=(t,))
         arms = table.arrays["moment_arm_m"].reshape(-1, 3)
@@ -253,8 +258,12 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
               + ("pass" if ok else "FAIL"))
         if not ok:
             failed.append(t)
-    print("all band tables within the bound" if not failed else f"over the bound or unsolved: {', '.join(failed)}")
-    return 1 if failed else 0
+    if len(held):
+        print("all band tables within the bound" if not failed else f"over the bound or unsolved: {', '.join(failed)}")
+    applied = report([(f"MuJoCo's applied generalised force with the band corrections vs the FEM band's, every grid "
+                       f"pose and level (pass: <= {100 * APPLIED_TOL:g} % of the tendon's peak |torque| in that "
+                       "coordinate)", applied_vs_fem(folder, "band", names))])
+    return 1 if failed or applied else 0
 
 
 def _full_force(law, pose: full_arm.Pose, tendon: str, poses: np.ndarray) -> np.ndarray:
