@@ -317,6 +317,14 @@ def test_the_taut_band_is_stress_free_at_each_pose_and_needs_no_walk(pose):
     assert band.solve_path([slack])[0]["torque_Nm"] == pytest.approx(alone["torque_Nm"])
     with pytest.raises(ValueError, match="stress-free"):
         F.FootprintSheet("ssp", "coarse", pose=pose, rest="slack")
+    # Newton from an equilibrium of the sheet built at that pose stays there; from a neighbour's it finds one too
+    same = band.solve_from(slack, alone["nodes"])
+    np.testing.assert_allclose(same["torque_Nm"], alone["torque_Nm"], rtol=1e-6, atol=1e-9)
+    assert np.isfinite(same["energy_J"]) and same["energy_J"] > 0
+    near = band.solve_from(slack, band.solve((45.0, 117.5, 45.0))["nodes"])
+    assert near["tension_N"] > 0.5 * band.f0
+    with pytest.raises(ValueError, match='rest="pose" only'):
+        walk.solve_from(slack, alone["nodes"])
 
 
 @pytest.mark.parametrize("tendon", ["ssp", "isp"])

@@ -242,13 +242,13 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
         table = BandTable(table_path(t, folder), interpolation)
         law = TendonLaw.load("fem", tendons=(t,))
         arms = table.arrays["moment_arm_m"].reshape(-1, 3)
-        peak = np.abs(_full_force(law, pose, t, grid_poses())[:, None] * arms).max(axis=0)
+        peak = np.abs(full_force(law, pose, t, grid_poses())[:, None] * arms).max(axis=0)
         with tqdm(total=len(held), desc=f"verify {t}", unit="pose", disable=quiet, leave=False) as bar:
             band = compare(t, held, resolution or table.meta["resolution"], progress=bar.update, pose=pose,
                            rest="pose")
         unsolved = int((~band["converged"]).sum())
         err = np.abs(band["mjcf_m"] + table.correction(held) - band["fem_m"])  # NaN where unsolved
-        pct = _full_force(law, pose, t, held)[:, None] * err / peak * 100
+        pct = full_force(law, pose, t, held)[:, None] * err / peak * 100
         worst = np.nanmax(pct, axis=0)
         ok = bool(np.all(worst <= HELD_OUT_TOL * 100)) and unsolved == 0
         at = held[int(np.nanargmax(pct.max(axis=1)))]
@@ -266,7 +266,7 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
     return 1 if failed or applied else 0
 
 
-def _full_force(law, pose: full_arm.Pose, tendon: str, poses: np.ndarray) -> np.ndarray:
+def full_force(law, pose: full_arm.Pose, tendon: str, poses: np.ndarray) -> np.ndarray:
     """(P,) N: the length-keyed law's force of `tendon` at full activation, at rest, at `poses` (deg)."""
     n = len(poses)
     return law.force(pose.tendon_geometry(poses, (tendon,))[0], np.zeros((n, 1)), np.ones((n, 1)))[:, 0]

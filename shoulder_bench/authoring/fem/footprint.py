@@ -225,6 +225,18 @@ class FootprintSheet:
         self._place(pose_deg)
         return self.reduce(self._activate(self.problem.predict(self.problem.X, 0.0, 0.0), activation), activation)
 
+    def solve_from(self, pose_deg, start: np.ndarray, activation: float = 1.0) -> dict:
+        """rest="pose": the sheet built stress-free at `pose_deg`, as `solve` builds it, but Newton started from the
+        free nodes of `start` (e.g. a neighbouring pose's equilibrium) instead of the ramp from rest; `solve`'s
+        result plus its potential energy ("energy_J"). NoConvergence where Newton fails."""
+        if self.rest != "pose":
+            raise ValueError('solve_from builds the sheet at the pose: rest="pose" only')
+        self._set(pose_deg)
+        self._build(self.draped())
+        self._place(pose_deg)
+        x, _ = self.problem.newton(self.problem.predict(start, 0.0, 0.0), activation)
+        return dict(self.reduce(x, activation), energy_J=self.problem.energy(x, activation))
+
     def _activate(self, x: np.ndarray, activation: float) -> np.ndarray:
         """The relaxed sheet `x` (at the placed pose) activated to `activation` in ACTIVATION_STEPS."""
         a0 = 0.0
