@@ -91,7 +91,8 @@ def run_folders(runs: Path) -> list[Path]:
 def setting_key(cfg: dict) -> str:
     """A run's row: runs pool only when their algorithm config and options agree, seeds and budgets apart
     (`leaderboard.setting_of`, which also drops the seed DQN's config repeats)."""
-    return json.dumps(setting_of({"config": cfg.get("config"), "options": cfg.get("options")}), sort_keys=True)
+    return json.dumps(setting_of({"algo": cfg.get("algo"), "config": cfg.get("config"), "options": cfg.get("options")}),
+                      sort_keys=True)
 
 
 def _variant(setting: str, settings: list[str]) -> str:

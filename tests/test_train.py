@@ -178,3 +178,22 @@ def test_fused_adam_takes_the_same_steps_as_rsl_rls_adam_and_is_what_training_us
     train("abduction_ssp", "ppo", frames=128, out=tmp_path / "foreach", config=_config(tmp_path, fused_adam=False),
           eval_every=10**9)
     assert len(seen) == 1
+
+
+def test_anneal_kl_lowers_the_kl_target_linearly_over_the_budget(tmp_path, monkeypatch):
+    """anneal_kl: each update's KL target is desired_kl x (1 - frames so far / budget); without it, fixed."""
+    from rsl_rl.algorithms import PPO
+
+    seen, update = [], PPO.update
+
+    def spy(self):
+        seen.append(self.desired_kl)
+        return update(self)
+    monkeypatch.setattr(PPO, "update", spy)
+    train("abduction_ssp", "ppo", frames=512, out=tmp_path / "a", config=_config(tmp_path, anneal_kl=True,
+                                                                                    desired_kl=0.02),
+          eval_every=10**9)
+    np.testing.assert_allclose(seen, [0.02, 0.015, 0.01, 0.005])
+    seen.clear()
+    train("abduction_ssp", "ppo", frames=256, out=tmp_path / "b", config=_config(tmp_path), eval_every=10**9)
+    assert seen == [0.01, 0.01]

@@ -32,6 +32,8 @@ class PPOConfig:
     learning_rate: float = 1e-3
     schedule: str = "adaptive"  # rsl-rl: adapt the learning rate to keep the KL near desired_kl
     desired_kl: float = 0.01
+    anneal_kl: bool = False  # the adaptive schedule's KL target falls linearly to 0 over the run's frame budget
+    # (so its learning rate with it, to rsl-rl's floor of 1e-5): updates shrink as the budget ends
     num_learning_epochs: int = 1
     num_mini_batches: int = 8
     clip_param: float = 0.2
@@ -171,6 +173,8 @@ def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval,
     iteration, next_eval = run.frames // per_iteration, evaluate_every(run.frames)
     while run.frames < frames:
         t0 = time.perf_counter()
+        if cfg.anneal_kl:  # the target of this iteration's update (rsl-rl reads alg.desired_kl there)
+            alg.desired_kl = cfg.desired_kl * max(1.0 - run.frames / frames, 0.0)
         with torch.inference_mode():
             for _ in range(cfg.steps_per_env):
                 obs, rewards, dones, extras = env.step(alg.act(obs))

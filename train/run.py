@@ -35,8 +35,8 @@ IDENTITY = ("task", "algo", "seed", "muscle_model", "options", "model_version", 
 BUDGET_FREE = ("frames",)  # algorithm config fields that are the run's budget, not its identity (DQN's `frames`)
 # PPO config fields added after runs were recorded, with the value those runs had (their behaviour then): a run
 # recorded without one is the same run as one asking for that value. Torch threads in the update (1), rsl-rl's foreach
-# Adam (fused_adam False)
-ADDED_FIELDS = {"update_threads": 1, "fused_adam": False}
+# Adam (fused_adam False), a fixed KL target (anneal_kl False)
+ADDED_FIELDS = {"update_threads": 1, "fused_adam": False, "anneal_kl": False}
 
 
 def write_json(path: Path, obj) -> None:
