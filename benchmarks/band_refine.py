@@ -18,7 +18,7 @@ import itertools
 import numpy as np
 
 from shoulder_bench import full_arm
-from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, BandTable, full_force, grid_poses, table_path
+from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, BandTable, full_force, peak_torque, table_path
 from shoulder_bench.authoring.fem.footprint import compare
 from shoulder_bench.tendon_law import TendonLaw
 
@@ -37,12 +37,14 @@ def trilinear(corners: np.ndarray, weights: np.ndarray) -> np.ndarray:
     return out
 
 
+def setup(tendon: str) -> tuple:
+    """(the task model posed, the tendon's band table, its force law, its peak torque: the verify's scale)."""
+    pose, table, law = full_arm.Pose(), BandTable(table_path(tendon)), TendonLaw.load("fem", tendons=(tendon,))
+    return pose, table, law, peak_torque(table, law, pose)
+
+
 def study(tendon: str, at) -> None:
-    pose = full_arm.Pose()
-    table = BandTable(table_path(tendon))
-    law = TendonLaw.load("fem", tendons=(tendon,))
-    arms = table.arrays["moment_arm_m"].reshape(-1, 3)
-    peak = np.abs(full_force(law, pose, tendon, grid_poses())[:, None] * arms).max(axis=0)
+    pose, table, law, peak = setup(tendon)
     half = np.array([full_arm.POSE_STEP_DEG[c] / 2 for c in full_arm.COORDINATES])
     p = np.asarray(at, dtype=float)
     offsets = np.array(list(itertools.product((-1, 0, 1), repeat=3)), dtype=float)  # the finer grid's nodes
@@ -73,11 +75,7 @@ def branches(tendon: str, at) -> None:
     from shoulder_bench.authoring.fem.footprint import FootprintSheet
     from shoulder_bench.authoring.fem.solver import NoConvergence
 
-    pose = full_arm.Pose()
-    table = BandTable(table_path(tendon))
-    law = TendonLaw.load("fem", tendons=(tendon,))
-    arms = table.arrays["moment_arm_m"].reshape(-1, 3)
-    peak = np.abs(full_force(law, pose, tendon, grid_poses())[:, None] * arms).max(axis=0)
+    pose, table, law, peak = setup(tendon)
     p = np.asarray(at, dtype=float)
     quarter = np.array([full_arm.POSE_STEP_DEG[c] / 4 for c in full_arm.COORDINATES])
     sheet = FootprintSheet(tendon, table.meta["resolution"], pose=pose, rest="pose")

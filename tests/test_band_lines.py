@@ -1,15 +1,15 @@
 """The band tables applied in MuJoCo (shoulder_bench/band_lines.py, the passive callbacks; the 3-DOF tasks'
 line_of_action="band"): the correction read as scipy reads the tables, the compiled and the Python callbacks alike,
-the applied generalised force the band's, rollout's threads as mj_step, the statics and the options."""
+the applied generalised force the band's, the statics and the options (the batched env against the single env with
+the bands: tests/test_tasks_3dof.py)."""
 from __future__ import annotations
 
 import mujoco
 import numpy as np
 import pytest
-import torch
 
 import shoulder_bench
-from shoulder_bench import full_arm, protocol
+from shoulder_bench import full_arm
 from shoulder_bench.band_lines import BAND_TENDONS, BandLines, table_path
 from shoulder_bench.model import attach_law, install_callbacks
 from shoulder_bench.tendon_law import TendonLaw
@@ -75,22 +75,6 @@ def test_the_applied_check_passes_with_the_bands_and_fails_without():
         arms = z["moment_arm_m"].reshape(-1, 1, 3)
     checks = applied_checks(TendonLaw.load("fem", ("tmi",)), "tmi", full_arm.pose_grid(), arms)  # MJCF line only
     assert not all(ok for _, ok, _ in checks)
-
-
-def test_the_batched_env_follows_the_single_env_with_the_bands():
-    env = shoulder_bench.load("track_3dof", split="test", seed=5, line_of_action="band")
-    ts = env.reset()
-    venv = shoulder_bench.make_vec("track_3dof", 2, seed=5, split="test", line_of_action="band")
-    try:
-        rng = np.random.default_rng(1)
-        for _ in range(20):
-            a = rng.uniform(-0.012, 0.012, (2, len(full_arm.MUSCLES)))
-            ts = env.step(a[0])
-            obs, _, done, _ = venv.step(torch.as_tensor(a))
-            np.testing.assert_allclose(obs["policy"].numpy()[0], protocol.flatten(ts.observation), atol=1e-4)
-            assert not done.any()
-    finally:
-        venv.close()
 
 
 def test_the_holding_activations_hold_the_arm_with_the_bands():

@@ -44,10 +44,11 @@ def test_gymnasium_check_env(name):
     assert obs.shape == (12 + len(full_arm.MUSCLES),) and info["error_deg"] == pytest.approx(0.0, abs=1e-6)
 
 
-def test_batched_env_follows_the_single_env():
-    env = shoulder_bench.load("track_3dof", split="test", seed=11)
+@pytest.mark.parametrize("lines", ["mjcf", "band"])  # band: the passive callback in rollout's threads too
+def test_batched_env_follows_the_single_env(lines):
+    env = shoulder_bench.load("track_3dof", split="test", seed=11, line_of_action=lines)
     ts = env.reset()
-    venv = shoulder_bench.make_vec("track_3dof", 2, seed=11, split="test")
+    venv = shoulder_bench.make_vec("track_3dof", 2, seed=11, split="test", line_of_action=lines)
     try:
         np.testing.assert_allclose(venv.get_observations()["policy"].numpy()[0], protocol.flatten(ts.observation),
                                    atol=1e-5)

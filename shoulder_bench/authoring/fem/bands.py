@@ -241,8 +241,7 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
     for t in names if len(held) else ():
         table = BandTable(table_path(t, folder), interpolation)
         law = TendonLaw.load("fem", tendons=(t,))
-        arms = table.arrays["moment_arm_m"].reshape(-1, 3)
-        peak = np.abs(full_force(law, pose, t, grid_poses())[:, None] * arms).max(axis=0)
+        peak = peak_torque(table, law, pose)
         with tqdm(total=len(held), desc=f"verify {t}", unit="pose", disable=quiet, leave=False) as bar:
             band = compare(t, held, resolution or table.meta["resolution"], progress=bar.update, pose=pose,
                            rest="pose")
@@ -264,6 +263,12 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
                        f"pose and level (pass: <= {100 * APPLIED_TOL:g} % of the tendon's peak |torque| in that "
                        "coordinate)", applied_vs_fem(folder, "band", names))])
     return 1 if failed or applied else 0
+
+
+def peak_torque(table: BandTable, law, pose: full_arm.Pose) -> np.ndarray:
+    """(3,) N m: the tendon's peak |F(L_MT, 1) r_band| over the grid's poses, the scale of the verify's errors."""
+    arms = table.arrays["moment_arm_m"].reshape(-1, 3)
+    return np.abs(full_force(law, pose, table.tendon, grid_poses())[:, None] * arms).max(axis=0)
 
 
 def full_force(law, pose: full_arm.Pose, tendon: str, poses: np.ndarray) -> np.ndarray:
