@@ -44,17 +44,14 @@ from shoulder_bench.authoring.fem import rounded
 from shoulder_bench.authoring.fem.footprint import FOOTPRINT_M, SETTINGS, compare
 from shoulder_bench.authoring.fem.full import locked_folder
 from shoulder_bench.authoring.fem.material import Material
+from shoulder_bench.band_lines import BAND_TENDONS, read_table, table_path
 from shoulder_bench.muscle import replacing
 
 CODE_VERSION = "fem-band-2"  # bump when a change alters solutions; part of every table's input hash
-FOOTPRINT_TENDONS = ("ssp", "isp", "tmi", "tma", "pec1")
+FOOTPRINT_TENDONS = BAND_TENDONS  # the tendons whose footprint sheet is resolved
 # Where the band finds no equilibrium at a grid pose, the correction there is the mean of its solved neighbours'
 # (listed in the table's meta, `unsolved` in its arrays); more than this fraction of the grid unsolved fails the build
 MAX_UNSOLVED = 0.01
-
-
-def table_path(tendon: str, folder: Path | None = None) -> Path:
-    return Path(folder or full_arm.TABLE_FOLDER) / f"{tendon}_band.npz"
 
 
 def axes() -> list[np.ndarray]:
@@ -87,14 +84,7 @@ class BandTable:
     def __init__(self, path: Path, interpolation: str = "linear"):
         if interpolation not in INTERPOLATIONS:
             raise ValueError(f"unknown interpolation {interpolation!r}; choose from {', '.join(INTERPOLATIONS)}")
-        path = Path(path)
-        try:
-            with np.load(path, allow_pickle=False) as z:
-                self.arrays = {k: z[k] for k in z.files}
-        except (OSError, ValueError, KeyError) as exc:
-            raise ValueError(f"{path}: not a band table ({exc}); rebuild it with `shoulder-bench fem build "
-                             f"--bands`") from exc
-        self.meta = json.loads(str(self.arrays.pop("meta")))
+        self.arrays, self.meta = read_table(path)  # the runtime's reader (band_lines), with its checks
         self.tendon = self.meta["tendon"]
         from scipy.interpolate import RegularGridInterpolator
 
