@@ -249,7 +249,7 @@ class Abduction(control.Task):
 
     def draw_noise(self) -> None:
         """The noise of the observation of this frame: drawn once per reset and per step, whoever reads it."""
-        self.noise_z = self.noise_rng.standard_normal((1, 2)) if self.obs_noise_deg > 0 else None
+        self.noise_z = sensing.draw(self.noise_rng) if self.obs_noise_deg > 0 else None
 
     def get_observation(self, physics):
         k = min(self.frame + 1, len(self.target.angle_deg) - 1)

@@ -11,12 +11,17 @@ target with the holding activations (static optimisation, `statics_full`), or wi
 finite state, a MuJoCo instability, a coordinate more than VALID_MARGIN_DEG past its joint range) ends the episode
 with the 1-DOF tasks' penalty.
 
+Options (OPTIONS): the reward's alpha and omega_max, init, workspace, line_of_action ("band": the FEM bands' line of
+action, `band_lines`), and what the agent senses, delay_frames and obs_noise_deg (`sensing`, as the 1-DOF tasks').
+
 Targets (`trajectory3`): random quintic segments per coordinate (train 10 s, test 20 s, wider ranges), a CSV file
 (time_s, plane_deg, elevation_deg, rotation_deg), an ADL name, or (K, 3) degrees. `workspace="scapular_plane"`:
 the paper's 1-DOF abduction targets (elevation) in the scapular plane (30 deg) at rotation 0, the other two held: the
 abduction protocol with all muscles.
 """
 from __future__ import annotations
+
+import collections
 
 import numpy as np
 from dm_control.mujoco import wrapper
@@ -28,13 +33,15 @@ from dm_env import specs
 from shoulder_bench import band_lines, full_arm, protocol, statics_full, trajectory, trajectory3
 from shoulder_bench.model import attach_law, install_callbacks
 from shoulder_bench.tasks import options as opt
+from shoulder_bench.tasks import sensing
 from shoulder_bench.tendon_law import TendonLaw
 
 VALID_MARGIN_DEG = 30.0  # as the 1-DOF tasks' (arm.VALID_MARGIN_DEG)
 WORKSPACES = ("3dof", "scapular_plane")
 SCAPULAR_PLANE_DEG = 30.0
 INITS = ("hold", "zero")
-OPTIONS = ("alpha", "omega_max", "init", "workspace", "muscle_model", "line_of_action")  # what the 3-DOF tasks accept
+OPTIONS = ("alpha", "omega_max", "init", "workspace", "muscle_model", "line_of_action", "delay_frames",
+           "obs_noise_deg")  # what the 3-DOF tasks accept
 
 
 def scapular(elevation_deg, name: str = "") -> trajectory3.Trajectory3:
@@ -109,7 +116,7 @@ class Track3D(control.Task):
 
     def __init__(self, muscles=full_arm.MUSCLES, discrete=False, split="train", trajectory_=None,
                  alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", workspace="3dof",
-                 line_of_action="mjcf", random=None, **unknown):
+                 line_of_action="mjcf", delay_frames=0, obs_noise_deg=0.0, random=None, **unknown):
         super().__init__()
         if unknown:
             raise ValueError(f"option(s) {sorted(unknown)} are not offered on the 3-DOF tasks (yet); they accept "
@@ -122,6 +129,12 @@ class Track3D(control.Task):
         self.init = opt.choice("init", init, INITS)
         self.workspace = opt.choice("workspace", workspace, WORKSPACES)
         self.line_of_action = opt.choice("line_of_action", line_of_action, band_lines.LINES)
+        # what the agent senses (shoulder_bench.tasks.sensing): k frames late, with Gaussian noise
+        self.delay_frames = opt.integer("delay_frames", delay_frames, 0, sensing.MAX_DELAY_FRAMES)
+        self.obs_noise_deg = opt.number("obs_noise_deg", obs_noise_deg, 0.0)
+        self.history: collections.deque | None = None  # the last delay_frames + 1 sensed states, oldest first
+        self.noise_z: np.ndarray | None = None  # (1, 6) standard normals of the observation now (None: no noise)
+        self.noise_rng = sensing.noise_rng(opt.seed(random))
         self.fixed = trajectory_
         self.rng = np.random.default_rng(opt.seed(random))
         self.target: trajectory3.Trajectory3 | None = None
@@ -132,6 +145,7 @@ class Track3D(control.Task):
 
     def reseed(self, seed) -> None:
         self.rng = np.random.default_rng(opt.seed(seed))
+        self.noise_rng = sensing.noise_rng(opt.seed(seed))
 
     def draw_target(self, rng: np.random.Generator | None = None) -> trajectory3.Trajectory3:
         """The next episode's target: the fixed one, or drawn from `rng` (default the task's own)."""
@@ -163,6 +177,9 @@ class Track3D(control.Task):
         physics.data.ctrl[:] = 0.0
         if self.init == "hold":
             physics.set_activations(self.muscles, self.statics.holding(self.target.angle_deg[0])[0])
+        self.history = None if not self.delay_frames else collections.deque(
+            [self.sense(physics)] * (self.delay_frames + 1), maxlen=self.delay_frames + 1)
+        self.draw_noise()
 
     def before_step(self, action, physics):
         applied, sent = protocol.to_delta(action, len(self.muscles), self.discrete)
@@ -172,13 +189,26 @@ class Track3D(control.Task):
     def after_step(self, physics):
         self.frame += 1
         physics.check_failure()
+        if self.history is not None:
+            self.history.append(self.sense(physics))
+        self.draw_noise()
+
+    def sense(self, physics) -> np.ndarray:
+        """(1, 6 + n): the true angles (deg), velocities (deg/s) and activations now."""
+        return sensing.state(physics.coordinates_deg()[None], physics.velocities_deg()[None],
+                             physics.activations(self.muscles))
+
+    def draw_noise(self) -> None:
+        """The noise of the observation of this frame: drawn once per reset and per step, whoever reads it."""
+        self.noise_z = sensing.draw(self.noise_rng, 3) if self.obs_noise_deg > 0 else None
 
     def get_observation(self, physics):
         k = min(self.frame + 1, len(self.target.angle_deg) - 1)
-        return {"angle": physics.coordinates_deg(), "angular_velocity": physics.velocities_deg(),
+        sensed = self.history[0] if self.history is not None else self.sense(physics)  # delay_frames late
+        angle, velocity = sensing.noisy(sensed[:, :3], sensed[:, 3:6], self.obs_noise_deg, self.noise_z)
+        return {"angle": angle[0].copy(), "angular_velocity": velocity[0].copy(),
                 "target_angle": self.target.angle_deg[k].copy(),
-                "target_velocity": self.target.velocity_deg_s[k].copy(),
-                "activations": physics.activations(self.muscles).copy()}
+                "target_velocity": self.target.velocity_deg_s[k].copy(), "activations": sensed[0, 6:].copy()}
 
     def error_deg(self, physics) -> float:
         """The angle between the achieved and the target humerus orientation now (deg)."""

@@ -217,7 +217,7 @@ class VecEnv(Lockstep):
         """Each copy in `idx` draws the noise of its observation now from its own generator, as the single env."""
         if self.obs_noise_deg > 0:
             for i in idx:
-                self.noise_z[i] = self.noise_rngs[i].standard_normal((1, 2))[0]
+                self.noise_z[i] = sensing.draw(self.noise_rngs[i])[0]
 
     def observation_array(self) -> np.ndarray:
         """(N, 4 + n) float64 observations in protocol.OBSERVATION_KEYS order (the TensorDict holds float32 casts):

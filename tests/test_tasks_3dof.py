@@ -44,11 +44,12 @@ def test_gymnasium_check_env(name):
     assert obs.shape == (12 + len(full_arm.MUSCLES),) and info["error_deg"] == pytest.approx(0.0, abs=1e-6)
 
 
-@pytest.mark.parametrize("lines", ["mjcf", "band"])  # band: the passive callback in rollout's threads too
-def test_batched_env_follows_the_single_env(lines):
-    env = shoulder_bench.load("track_3dof", split="test", seed=11, line_of_action=lines)
+# band: the passive callback in rollout's threads too; the sensing options: the same delay buffer and noise draws
+@pytest.mark.parametrize("options", [{}, {"line_of_action": "band"}, {"delay_frames": 2, "obs_noise_deg": 0.5}])
+def test_batched_env_follows_the_single_env(options):
+    env = shoulder_bench.load("track_3dof", split="test", seed=11, **options)
     ts = env.reset()
-    venv = shoulder_bench.make_vec("track_3dof", 2, seed=11, split="test", line_of_action=lines)
+    venv = shoulder_bench.make_vec("track_3dof", 2, seed=11, split="test", **options)
     try:
         np.testing.assert_allclose(venv.get_observations()["policy"].numpy()[0], protocol.flatten(ts.observation),
                                    atol=1e-5)
@@ -92,7 +93,7 @@ def test_orientation_error_is_the_rotation_angle():
 
 def test_bad_options_and_actions_are_clear_errors():
     with pytest.raises(ValueError, match="not offered on the 3-DOF tasks"):
-        shoulder_bench.load("track_3dof", delay_frames=1)
+        shoulder_bench.load("track_3dof", activation_dynamics=True)
     with pytest.raises(ValueError, match="not offered on the 3-DOF tasks"):
         check_options("track_3dof", condition="ssp_tear")
     with pytest.raises(ValueError, match="workspace"):
@@ -291,3 +292,44 @@ def test_scapular_plane_task_is_tested_on_the_paper_test_set_in_the_scapular_pla
     assert len(three) == len(one) == 100
     np.testing.assert_allclose(three[3].angle_deg[:, 1], one[3].angle_deg)
     assert np.all(three[3].angle_deg[:, 0] == 30.0) and np.all(three[3].angle_deg[:, 2] == 0.0)
+
+
+def test_the_sensing_options_delay_and_blur_what_the_agent_sees_not_the_reward():
+    """delay_frames=k: the observed angles, velocities and activations are those of k frames before (the targets
+    current); obs_noise_deg=sigma: Gaussian with that sigma on the angles and velocities only; a restored state
+    continues exactly."""
+    k, rng = 2, np.random.default_rng(4)
+    late = shoulder_bench.make_vec("track_3dof", 2, seed=3, split="test", delay_frames=k)
+    now = shoulder_bench.make_vec("track_3dof", 2, seed=3, split="test")
+    seen, truth = [], []
+    for _ in range(6):
+        a = torch.as_tensor(rng.uniform(-0.01, 0.01, (2, len(full_arm.MUSCLES))))
+        seen.append(late.step(a)[0]["policy"].numpy())
+        truth.append(now.step(a)[0]["policy"].numpy())
+    seen, truth = np.array(seen), np.array(truth)
+    sensed = np.r_[0:6, 12:25]  # angles, velocities, activations
+    np.testing.assert_array_equal(seen[k:][..., sensed], truth[:-k][..., sensed])
+    np.testing.assert_array_equal(seen[..., 6:12], truth[..., 6:12])  # targets: current
+    assert not np.array_equal(seen[k:][..., :3], truth[k:][..., :3])
+    sigma, n = 0.8, 64
+    noisy = shoulder_bench.make_vec("track_3dof", n, seed=3, split="test", obs_noise_deg=sigma)
+    clean = shoulder_bench.make_vec("track_3dof", n, seed=3, split="test")
+    d = noisy.get_observations()["policy"].numpy().astype(float) - clean.get_observations()["policy"].numpy()
+    assert 0.6 * sigma < d[:, :6].std() < 1.4 * sigma and np.all(d[:, 6:] == 0)
+    a = torch.zeros(n, len(full_arm.MUSCLES))
+    _, r_noisy, _, _ = noisy.step(a)
+    _, r_clean, _, _ = clean.step(a)
+    np.testing.assert_array_equal(r_noisy.numpy(), r_clean.numpy())  # rewards see the true state
+    both = shoulder_bench.make_vec("track_3dof", 2, seed=9, split="test", delay_frames=1, obs_noise_deg=0.3)
+    both.step(torch.zeros(2, len(full_arm.MUSCLES)))
+    saved = both.state_dict()
+    ahead = [both.step(torch.full((2, len(full_arm.MUSCLES)), 0.004))[0]["policy"].numpy() for _ in range(3)]
+    both.load_state_dict(saved)
+    again = [both.step(torch.full((2, len(full_arm.MUSCLES)), 0.004))[0]["policy"].numpy() for _ in range(3)]
+    np.testing.assert_array_equal(np.array(ahead), np.array(again))
+    with pytest.raises(ValueError, match="cannot be restored"):
+        late.load_state_dict(saved)
+    with pytest.raises(ValueError, match=r"delay_frames must be an integer in \[0, 10\]"):
+        shoulder_bench.load("track_3dof", delay_frames=11)
+    for env in (late, now, noisy, clean, both):
+        env.close()
