@@ -76,6 +76,63 @@ class Lockstep:
         out, self._finished = self._finished, []
         return out
 
+    # --- what the agent senses (shoulder_bench.tasks.sensing): the delay buffer and the noise, per copy -------------
+    SENSED_DOFS = 1  # coordinates whose angle and velocity are sensed (VecEnv3: 3)
+    _SENSING = ("obs_history", "noise_z")  # states saved before these options existed lack them: defaults only
+
+    def _setup_sensing(self, seed) -> None:
+        """The task's delay_frames and obs_noise_deg, copy i's noise drawn as the single env seeded seed + i's."""
+        d = self.SENSED_DOFS
+        self.delay_frames, self.obs_noise_deg = self.task.delay_frames, self.task.obs_noise_deg
+        self.noise_rngs = [sensing.noise_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
+        self.obs_history = np.zeros((self.num_envs, self.delay_frames + 1, 2 * d + self.n))  # oldest first; k > 0
+        self.noise_z = np.zeros((self.num_envs, 2 * d))  # standard normals of each copy's observation now
+
+    def _sense_reset(self, idx) -> None:
+        """Copies `idx` start an episode: their delay buffer holds the state now, their noise is drawn anew."""
+        if self.delay_frames:
+            self.obs_history[idx] = self._sense()[idx][:, None, :]
+        self._draw_noise(idx)
+
+    def _sense_frame(self) -> None:
+        """After a frame of every copy: the state now joins the delay buffer, every copy draws its noise."""
+        if self.delay_frames:
+            self.obs_history = np.concatenate([self.obs_history[:, 1:], self._sense()[:, None, :]], axis=1)
+        self._draw_noise(range(self.num_envs))
+
+    def _draw_noise(self, idx) -> None:
+        """Each copy in `idx` draws the noise of its observation now from its own generator, as the single env."""
+        if self.obs_noise_deg > 0:
+            for i in idx:
+                self.noise_z[i] = sensing.draw(self.noise_rngs[i], self.SENSED_DOFS)[0]
+
+    def _sensed(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(angles, velocities, activations) as the agent sees them: delay_frames late, noisy; angles (N,) for one
+        sensed coordinate, else (N, d)."""
+        d = self.SENSED_DOFS
+        s = self.obs_history[:, 0] if self.delay_frames else self._sense()
+        angle, velocity = (s[:, 0], s[:, 1]) if d == 1 else (s[:, :d], s[:, d:2 * d])
+        angle, velocity = sensing.noisy(angle, velocity, self.obs_noise_deg,
+                                        self.noise_z if self.obs_noise_deg > 0 else None)
+        return angle, velocity, s[:, 2 * d:]
+
+    def _sensing_state(self) -> dict:
+        return {"delay_frames": self.delay_frames, "obs_noise_deg": self.obs_noise_deg,
+                "noise_rngs": [r.bit_generator.state for r in self.noise_rngs],
+                **{key: getattr(self, key).copy() for key in self._SENSING}}
+
+    def _load_sensing(self, state: dict) -> None:
+        """The sensing part of a saved state (`_sensing_state`); ValueError if saved with other sensing options."""
+        saved = (state.get("delay_frames", 0), state.get("obs_noise_deg", 0.0))
+        if saved != (self.delay_frames, self.obs_noise_deg):
+            raise ValueError(f"env state saved with delay_frames={saved[0]}, obs_noise_deg={saved[1]:g} cannot be "
+                             f"restored into an env with delay_frames={self.delay_frames}, "
+                             f"obs_noise_deg={self.obs_noise_deg:g}")
+        for rng, saved_rng in zip(self.noise_rngs, state.get("noise_rngs", [])):
+            rng.bit_generator.state = saved_rng
+        for key in (k for k in self._SENSING if k in state):
+            setattr(self, key, np.array(state[key], copy=True))
+
 
 class VecEnv(Lockstep):
     """`shoulder_bench.make_vec(name, num_envs, device, seed, **options)`; options as for `shoulder_bench.load`, and
@@ -108,11 +165,7 @@ class VecEnv(Lockstep):
         self.sim.model.dof_damping[self.sim.dadr] = self.task.joint_damping
         self._setup_physiology(seed)
         self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
-        # what the agent senses (shoulder_bench.tasks.sensing), as the single env seeded seed + i
-        self.delay_frames, self.obs_noise_deg = self.task.delay_frames, self.task.obs_noise_deg
-        self.noise_rngs = [sensing.noise_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
-        self.obs_history = np.zeros((self.num_envs, self.delay_frames + 1, 2 + self.n))  # oldest first; k > 0 only
-        self.noise_z = np.zeros((self.num_envs, 2))  # standard normals of each copy's observation now
+        self._setup_sensing(seed)
         split_frames = int(round(targets.SPLITS[self.task.split]["duration_s"] / protocol.FRAME_S))
         self.episode_frames = np.array([split_frames if t is None else t.frames for t in self.fixed])
         self.max_episode_length = int(self.episode_frames.max())
@@ -186,9 +239,7 @@ class VecEnv(Lockstep):
             self.excitation[idx] = self.act[idx]
             self.fatigue_state[idx] = physiology.fresh_fatigue(self.act[idx])
         self.frames[idx] = 0
-        if self.delay_frames:
-            self.obs_history[idx] = self._sense()[idx][:, None, :]
-        self._draw_noise(idx)
+        self._sense_reset(idx)
         self._return[idx] = 0.0
         self._abs_err[idx] = 0.0
         self.episode_length_buf[torch.as_tensor(idx, device=self.device)] = 0
@@ -213,24 +264,12 @@ class VecEnv(Lockstep):
         """(N, 2 + n): the true angle (deg), velocity (deg/s) and activations now."""
         return sensing.state(np.degrees(self.q), np.degrees(self.v), self.act)
 
-    def _draw_noise(self, idx) -> None:
-        """Each copy in `idx` draws the noise of its observation now from its own generator, as the single env."""
-        if self.obs_noise_deg > 0:
-            for i in idx:
-                self.noise_z[i] = sensing.draw(self.noise_rngs[i])[0]
-
     def observation_array(self) -> np.ndarray:
         """(N, 4 + n) float64 observations in protocol.OBSERVATION_KEYS order (the TensorDict holds float32 casts):
         the sensed terms delay_frames late and noisy (`shoulder_bench.tasks.sensing`), the targets current."""
         k = np.minimum(self.frames + 1, self.episode_frames)
         rows = np.arange(self.num_envs)
-        if self.delay_frames:
-            old = self.obs_history[:, 0]
-            angle, velocity, act = old[:, 0], old[:, 1], old[:, 2:]
-        else:
-            angle, velocity, act = np.degrees(self.q), np.degrees(self.v), self.act
-        angle, velocity = sensing.noisy(angle, velocity, self.obs_noise_deg,
-                                        self.noise_z if self.obs_noise_deg > 0 else None)
+        angle, velocity, act = self._sensed()
         obs = protocol.observation(angle, velocity, self.targets[rows, k], self.target_vel[rows, k], act)
         return np.concatenate([obs[key] for key in protocol.OBSERVATION_KEYS], axis=1)
 
@@ -253,9 +292,7 @@ class VecEnv(Lockstep):
         self.qpos, self.qvel, bad = self.sim.frame_state(self.qpos, self.qvel, acting)
         q = self.q
         self.frames += 1
-        if self.delay_frames:
-            self.obs_history = np.concatenate([self.obs_history[:, 1:], self._sense()[:, None, :]], axis=1)
-        self._draw_noise(range(self.num_envs))
+        self._sense_frame()
         angle = np.degrees(q)
         rows = np.arange(self.num_envs)
         lo, hi = arm_.RANGE_DEG
@@ -293,7 +330,6 @@ class VecEnv(Lockstep):
 
     # --- checkpoints --------------------------------------------------------------------------------------------------
     _STATE = ("targets", "target_vel", "frames", "qpos", "qvel", "act", "_return", "_abs_err")
-    _SENSING = ("obs_history", "noise_z")  # states saved before these options existed lack them: defaults only
     _PHYSIOLOGY = ("excitation", "fatigue_state", "draw_strength", "draw_mass", "draw_load")  # likewise
 
     def state_dict(self) -> dict:
@@ -304,10 +340,9 @@ class VecEnv(Lockstep):
         warm = None if self.sim.warmstart is None else self.sim.warmstart.copy()
         return {"num_envs": self.num_envs, "name": self.name, "rngs": [r.bit_generator.state for r in self.rngs],
                 "episode_length_buf": self.episode_length_buf.clone(), "finished": list(self._finished),
-                "warmstart": warm, "delay_frames": self.delay_frames, "obs_noise_deg": self.obs_noise_deg,
-                "noise_rngs": [r.bit_generator.state for r in self.noise_rngs],
+                "warmstart": warm, **self._sensing_state(),
                 "physiology": self._physiology_key(), "rand_rngs": [r.bit_generator.state for r in self.rand_rngs],
-                **{key: getattr(self, key).copy() for key in self._STATE + self._SENSING + self._PHYSIOLOGY}}
+                **{key: getattr(self, key).copy() for key in self._STATE + self._PHYSIOLOGY}}
 
     def _physiology_key(self) -> str:
         t = self.task
@@ -317,11 +352,6 @@ class VecEnv(Lockstep):
         if (state["name"], state["num_envs"]) != (self.name, self.num_envs):
             raise ValueError(f"env state of {state['num_envs']} copies of {state['name']} cannot be restored into "
                              f"{self.num_envs} copies of {self.name}")
-        saved = (state.get("delay_frames", 0), state.get("obs_noise_deg", 0.0))
-        if saved != (self.delay_frames, self.obs_noise_deg):
-            raise ValueError(f"env state saved with delay_frames={saved[0]}, obs_noise_deg={saved[1]:g} cannot be "
-                             f"restored into an env with delay_frames={self.delay_frames}, "
-                             f"obs_noise_deg={self.obs_noise_deg:g}")
         saved = state.get("physiology", repr((False, None, None)))
         if saved != self._physiology_key():
             raise ValueError(f"env state saved with physiology (activation_dynamics, fatigue, randomize) = {saved} "
@@ -329,13 +359,12 @@ class VecEnv(Lockstep):
         missing = [k for k in self._STATE if k not in state]
         if missing:
             raise ValueError(f"env state lacks {missing}: it was saved by another version of the model")
+        self._load_sensing(state)
         for rng, saved_rng in zip(self.rngs, state["rngs"]):
-            rng.bit_generator.state = saved_rng
-        for rng, saved_rng in zip(self.noise_rngs, state.get("noise_rngs", [])):
             rng.bit_generator.state = saved_rng
         for rng, saved_rng in zip(self.rand_rngs, state.get("rand_rngs", [])):
             rng.bit_generator.state = saved_rng
-        for key in self._STATE + tuple(k for k in self._SENSING + self._PHYSIOLOGY if k in state):
+        for key in self._STATE + tuple(k for k in self._PHYSIOLOGY if k in state):
             setattr(self, key, np.array(state[key], copy=True))
         if self.task.randomize is not None:
             self._apply_draws(range(self.num_envs))

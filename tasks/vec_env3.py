@@ -27,6 +27,7 @@ class VecEnv3(Lockstep):
     """`shoulder_bench.make_vec(name, num_envs, ...)` for the 3-DOF tasks; `trajectory`: one target for all copies
     or a list with one per copy (a copy's episodes then repeat its target)."""
 
+    SENSED_DOFS = 3  # plane, elevation, rotation
     DONE_DTYPE = torch.bool  # as its step returned them before `advance` (its runs were trained so)
 
     def __init__(self, name: str, num_envs: int, device: str = "cpu", seed=None, trajectory=None,
@@ -56,11 +57,7 @@ class VecEnv3(Lockstep):
         self.qadr, self.dadr = self.pose.qadr, self.pose.dadr
         self.valid_lo, self.valid_hi = valid_range_deg(m)
         self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
-        # what the agent senses (shoulder_bench.tasks.sensing), as the single env seeded seed + i
-        self.delay_frames, self.obs_noise_deg = self.task.delay_frames, self.task.obs_noise_deg
-        self.noise_rngs = [sensing.noise_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
-        self.obs_history = np.zeros((self.num_envs, self.delay_frames + 1, 6 + self.n))  # oldest first; k > 0 only
-        self.noise_z = np.zeros((self.num_envs, 6))  # standard normals of each copy's observation now
+        self._setup_sensing(seed)
         split_frames = int(round(trajectory3.SPLITS[self.task.split]["duration_s"] / protocol.FRAME_S))
         self.episode_frames = np.array([split_frames if t is None else t.frames for t in self.fixed])
         self.max_episode_length = int(self.episode_frames.max())
@@ -94,30 +91,19 @@ class VecEnv3(Lockstep):
         self.frames[idx] = 0
         self._return[idx] = 0.0
         self.episode_length_buf[torch.as_tensor(idx)] = 0
-        if self.delay_frames:
-            self.obs_history[idx] = self._sense()[idx][:, None, :]
-        self._draw_noise(idx)
+        self._sense_reset(idx)
 
     def _sense(self) -> np.ndarray:
         """(N, 6 + n): the true angles (deg), velocities (deg/s) and activations now."""
         return sensing.state(np.degrees(self.qpos[:, self.qadr]), np.degrees(self.qvel[:, self.dadr]), self.act)
-
-    def _draw_noise(self, idx) -> None:
-        """Each copy in `idx` draws the noise of its observation now from its own generator, as the single env."""
-        if self.obs_noise_deg > 0:
-            for i in idx:
-                self.noise_z[i] = sensing.draw(self.noise_rngs[i], 3)[0]
 
     def observation_array(self) -> np.ndarray:
         """(N, 12 + n): the sensed terms delay_frames late and noisy (`shoulder_bench.tasks.sensing`), the targets
         current."""
         rows = np.arange(self.num_envs)
         k = np.minimum(self.frames + 1, self.episode_frames)
-        sensed = self.obs_history[:, 0] if self.delay_frames else self._sense()
-        angle, velocity = sensing.noisy(sensed[:, :3], sensed[:, 3:6], self.obs_noise_deg,
-                                        self.noise_z if self.obs_noise_deg > 0 else None)
-        return np.concatenate([angle, velocity, self.targets[rows, k], self.target_vel[rows, k], sensed[:, 6:]],
-                              axis=1)
+        angle, velocity, act = self._sensed()
+        return np.concatenate([angle, velocity, self.targets[rows, k], self.target_vel[rows, k], act], axis=1)
 
     def error_deg(self) -> np.ndarray:
         """(N,) the angle between each copy's humerus orientation and its target's now (deg)."""
@@ -139,9 +125,7 @@ class VecEnv3(Lockstep):
         self.qvel[crashed] = 0.0
         self.frames += 1
         self.episode_length_buf += 1
-        if self.delay_frames:
-            self.obs_history = np.concatenate([self.obs_history[:, 1:], self._sense()[:, None, :]], axis=1)
-        self._draw_noise(range(self.num_envs))
+        self._sense_frame()
         err = self.error_deg()
         reward = protocol.reward(err, 0.0, sent, self.task.alpha, self.task.omega_max, False)
         reward[crashed] = -protocol.CRASH_ERROR_DEG * (self.episode_frames[crashed] - self.frames[crashed] + 1)
@@ -163,30 +147,21 @@ class VecEnv3(Lockstep):
         return reward, done, extras
 
     _STATE = ("targets", "target_vel", "frames", "qpos", "qvel", "act", "_return", "episode_frames")
-    _SENSING = ("obs_history", "noise_z")  # states saved before these options existed lack them: defaults only
 
     def state_dict(self) -> dict:
         """Everything that decides the next frames: the copies' state and targets, every RNG, the delay buffer and
         the noise of the observation now, so a restored env continues exactly as this one would."""
         return {"num_envs": self.num_envs, "name": self.name, "rngs": [r.bit_generator.state for r in self.rngs],
-                "delay_frames": self.delay_frames, "obs_noise_deg": self.obs_noise_deg,
-                "noise_rngs": [r.bit_generator.state for r in self.noise_rngs],
-                **{k: getattr(self, k).copy() for k in self._STATE + self._SENSING}}
+                **self._sensing_state(), **{k: getattr(self, k).copy() for k in self._STATE}}
 
     def load_state_dict(self, state: dict) -> None:
         if state["num_envs"] != self.num_envs or state["name"] != self.name:
             raise ValueError(f"checkpoint env state is for {state['num_envs']} copies of {state['name']}, not "
                              f"{self.num_envs} of {self.name}")
-        saved = (state.get("delay_frames", 0), state.get("obs_noise_deg", 0.0))
-        if saved != (self.delay_frames, self.obs_noise_deg):
-            raise ValueError(f"env state saved with delay_frames={saved[0]}, obs_noise_deg={saved[1]:g} cannot be "
-                             f"restored into an env with delay_frames={self.delay_frames}, "
-                             f"obs_noise_deg={self.obs_noise_deg:g}")
+        self._load_sensing(state)
         for r, s in zip(self.rngs, state["rngs"]):
             r.bit_generator.state = s
-        for r, s in zip(self.noise_rngs, state.get("noise_rngs", ())):
-            r.bit_generator.state = s
-        for k in self._STATE + tuple(k for k in self._SENSING if k in state):
+        for k in self._STATE:
             setattr(self, k, np.array(state[k]))
         # a copy: torch.as_tensor would share the frames array, and both count up each frame (every episode then
         # ran at twice the pace after a restore: a resumed 3-DOF run ended its episodes at half their length)
