@@ -131,8 +131,10 @@ def _gain(m, d, i):
     if c < 0:
         return 0.0
     if i == e.first:  # MuJoCo visits actuators in order: evaluate all muscles once, at the first one
-        if e.qadr < 0:  # a length-keyed law: each tendon's length and lengthening rate
-            gain, bias = e.law.gain_bias_one(s.length[e.acts], s.speed[e.acts], s.ctrl[e.order])
+        if e.qadr < 0:  # a length-keyed law: each tendon's length and lengthening rate (MuJoCo's actuator ones are
+            gear = np.asarray(m.actuator_gear)[e.acts, 0]  # gear x the tendon's; gear: 1, or a strength draw)
+            gear = np.where(gear != 0.0, gear, 1.0)
+            gain, bias = e.law.gain_bias_one(s.length[e.acts] / gear, s.speed[e.acts] / gear, s.ctrl[e.order])
         else:
             gain, bias = e.law.gain_bias_one(s.qpos[e.qadr], s.qvel[e.vadr], s.ctrl[e.order])
         s.gain = [-x for x in gain.tolist()]  # negative: muscles pull, shortening their tendon

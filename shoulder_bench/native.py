@@ -61,9 +61,10 @@ JOINT_MODE, LENGTH_MODE = 0, 1  # row[MODE]: the law reads one joint's angle (Fo
 # row[BAND]: 0, or the address of a band block (int64 words): the law's band corrections (`band_lines`)
 NB, ACTS, BGRID, BSHAPE, BTABLE, BQADR, BDADR, BNU = range(8)
 # _ROOT layout
-TABLE, M_USER, M_NUSER, D_QPOS, D_QVEL, D_CTRL, D_ALEN, D_AVEL, M_NU, D_QFRC_PASSIVE = range(10)
+TABLE, M_USER, M_NUSER, D_QPOS, D_QVEL, D_CTRL, D_ALEN, D_AVEL, M_NU, D_QFRC_PASSIVE, M_GEAR = range(11)
+ROOT_WORDS = 11
 
-_ROOT = np.zeros(10, dtype=np.int64)
+_ROOT = np.zeros(ROOT_WORDS, dtype=np.int64)
 llvm.add_symbol(SYMBOL, _ROOT.ctypes.data)
 _TABLES: list[np.ndarray] = []  # every row table ever made (the current one last), never freed
 _KEEP: dict[int, tuple] = {}  # law id -> the arrays its row points into
@@ -112,7 +113,7 @@ def _word(address):
 def _evaluate(m, d, i):
     """(gain, bias) of actuator i of model m in data d: -(active per unit activation x FV), -passive (muscles
     pull); (0, 0) where the actuator has no law."""
-    root = numba.carray(_i64p(_root()), 10)
+    root = numba.carray(_i64p(_root()), ROOT_WORDS)
     mp, dp = _address(m), _address(d)
     nuser = _word(mp + root[M_NUSER])
     if nuser < 2 or i < 0:  # MuJoCo passes actuator indices, 0 <= i < nu
@@ -141,8 +142,11 @@ def _evaluate(m, d, i):
         inv_dx = numba.carray(_f64p(row[INV_DX]), n)
         length = numba.carray(_f64p(_word(dp + root[D_ALEN])), i + 1)
         speed = numba.carray(_f64p(_word(dp + root[D_AVEL])), i + 1)
-        i_cell, w = law_cell(length[i], x0[c], inv_dx[c], nk - 1.000001)
-        velocity = speed[i]
+        # MuJoCo's actuator length is gear x the tendon's; gear is 1 in the model, a strength draw under randomize
+        gear = numba.carray(_f64p(_word(mp + root[M_GEAR])), 6 * (i + 1))[6 * i]
+        scale = 1.0 / gear if gear != 0.0 else 1.0
+        i_cell, w = law_cell(length[i] * scale, x0[c], inv_dx[c], nk - 1.000001)
+        velocity = speed[i] * scale
     else:
         qpos = numba.carray(_f64p(_word(dp + root[D_QPOS])), row[QADR] + 1)
         qvel = numba.carray(_f64p(_word(dp + root[D_QVEL])), row[VADR] + 1)
@@ -168,9 +172,10 @@ def bias(m, d, i):
 @numba.cfunc(types.void(types.voidptr, types.voidptr), nopython=True, nogil=True, cache=True)
 def passive(m, d):
     """`mjcb_passive`: add each band tendon's F (r_band - r_MJCF) to qfrc_passive about the three coordinates
-    (`band_lines`); nothing for a model whose law has no band block. F = -(gain a + bias), the actuator force MuJoCo
-    applies along the tendon (a = ctrl in [0, 1], the range `model.attach_law` requires of band actuators)."""
-    root = numba.carray(_i64p(_root()), 10)
+    (`band_lines`); nothing for a model whose law has no band block. F = -(gain a + bias) gear, the force MuJoCo
+    applies along the tendon (a = ctrl in [0, 1], the range `model.attach_law` requires of band actuators; gear: the
+    actuator's first, 1 in the model, a muscle's strength under `randomization`)."""
+    root = numba.carray(_i64p(_root()), ROOT_WORDS)
     mp, dp = _address(m), _address(d)
     nu, nuser = _word(mp + root[M_NU]), _word(mp + root[M_NUSER])
     if nu < 1 or nuser < 2:
@@ -195,11 +200,12 @@ def passive(m, d):
     qpos = numba.carray(_f64p(_word(dp + root[D_QPOS])), max(qadr[0], qadr[1], qadr[2]) + 1)
     qfrc = numba.carray(_f64p(_word(dp + root[D_QFRC_PASSIVE])), max(dadr[0], dadr[1], dadr[2]) + 1)
     ctrl = numba.carray(_f64p(_word(dp + root[D_CTRL])), nu)
+    gear = numba.carray(_f64p(_word(mp + root[M_GEAR])), 6 * nu)
     i0, w0, i1, w1, i2, w2 = band_cells(qpos[qadr[0]], qpos[qadr[1]], qpos[qadr[2]], grid, shape)
     for b in range(nb):
         i = acts[b]
         g, f0 = _evaluate(m, d, i)
-        tension = -(g * min(max(ctrl[i], 0.0), 1.0) + f0)
+        tension = -(g * min(max(ctrl[i], 0.0), 1.0) + f0) * gear[6 * i]
         for k in range(3):
             qfrc[dadr[k]] += tension * band_point(corrections, b, k, i0, w0, i1, w1, i2, w2)
 
@@ -315,15 +321,16 @@ def _matches(address: int, value: int, pointer: bool) -> list[int]:
 
 
 def find_offsets() -> dict[str, int]:
-    """Byte offsets of mjModel.actuator_user / nuser_actuator / nu and mjData.qpos / qvel / ctrl / actuator_length /
-    actuator_velocity / qfrc_passive in this MuJoCo, from three probe models of different sizes; RuntimeError if a
-    field is not found at one offset in all three. nu: the first size field equal to the probes' actuator count
-    (mjModel's nu precedes nactuator and nout, which equal it for the single-output actuators of these models;
-    `model.attach_law` checks the offset against each model it attaches band corrections to)."""
+    """Byte offsets of mjModel.actuator_user / actuator_gear / nuser_actuator / nu and mjData.qpos / qvel / ctrl /
+    actuator_length / actuator_velocity / qfrc_passive in this MuJoCo, from three probe models of different sizes;
+    RuntimeError if a field is not found at one offset in all three. nu: the first size field equal to the probes'
+    actuator count (mjModel's nu precedes nactuator and nout, which equal it for the single-output actuators of these
+    models; `model.attach_law` checks the offset against each model it attaches band corrections to)."""
     found: dict[str, set] = {}
     for joints, actuators, nuser in _PROBES:
         m, d = _probe(joints, actuators, nuser)
         targets = {"actuator_user": (m._address, m.actuator_user.ctypes.data, True),
+                   "actuator_gear": (m._address, m.actuator_gear.ctypes.data, True),
                    "nuser_actuator": (m._address, nuser, False), "nu": (m._address, m.nu, False),
                    "qfrc_passive": (d._address, d.qfrc_passive.ctypes.data, True),
                    "qpos": (d._address, d.qpos.ctypes.data, True), "qvel": (d._address, d.qvel.ctypes.data, True),
@@ -344,7 +351,8 @@ def find_offsets() -> dict[str, int]:
 try:
     OFFSETS = find_offsets()
     AVAILABLE, REASON = True, ""
-    _ROOT[M_USER], _ROOT[M_NUSER] = OFFSETS["actuator_user"], OFFSETS["nuser_actuator"]
+    _ROOT[M_USER], _ROOT[M_NUSER], _ROOT[M_GEAR] = (OFFSETS[k] for k in ("actuator_user", "nuser_actuator",
+                                                                          "actuator_gear"))
     _ROOT[D_QPOS], _ROOT[D_QVEL], _ROOT[D_CTRL], _ROOT[D_ALEN], _ROOT[D_AVEL], _ROOT[M_NU], _ROOT[D_QFRC_PASSIVE] = (
         OFFSETS[k] for k in ("qpos", "qvel", "ctrl", "actuator_length", "actuator_velocity", "nu", "qfrc_passive"))
 except Exception as exc:  # noqa: BLE001 - any failure means: use the Python callbacks

@@ -3,7 +3,8 @@
 `muscle.ForceLaw` reads every table at one joint angle (v1's abduction, v2's locked elevation). On the 3-DOF
 model a pose is three coordinates, but each FEM sheet's force depends on the pose only through its musculotendon
 length (`shoulder_bench.authoring.fem.full`), so each table here is F(L, a) on its own uniform length grid, and
-the callback reads MuJoCo's `actuator_length` and `actuator_velocity` (the tendon's length and lengthening rate).
+the callback reads MuJoCo's `actuator_length` and `actuator_velocity` over the actuator's gear (the tendon's length
+and lengthening rate; gear is 1 in the model and a muscle's strength draw under `randomization`).
 The arithmetic is `muscle.law_point`, the same inlined function as ForceLaw's, with the moment arm fixed at -1 so
 that its force-velocity argument is the tendon's lengthening rate itself.
 

@@ -12,7 +12,10 @@ finite state, a MuJoCo instability, a coordinate more than VALID_MARGIN_DEG past
 with the 1-DOF tasks' penalty.
 
 Options (OPTIONS): the reward's alpha and omega_max, init, workspace, line_of_action ("band": the FEM bands' line of
-action, `band_lines`), and what the agent senses, delay_frames and obs_noise_deg (`sensing`, as the 1-DOF tasks').
+action, `band_lines`), what the agent senses, delay_frames and obs_noise_deg (`sensing`, as the 1-DOF tasks'), and
+randomize (`shoulder_bench.randomization`, as the 1-DOF tasks': each episode's muscle strengths through the actuators'
+gear, all of a muscle's tendons by one draw, on the band's line of action too (`native.passive` reads the gear), the
+humerus mass and a load at the elbow, MoBL's humerus frame as the v2 arm's).
 
 Targets (`trajectory3`): random quintic segments per coordinate (train 10 s, test 20 s, wider ranges), a CSV file
 (time_s, plane_deg, elevation_deg, rotation_deg), an ADL name, or (K, 3) degrees. `workspace="scapular_plane"`:
@@ -22,6 +25,7 @@ abduction protocol with all muscles.
 from __future__ import annotations
 
 import collections
+import copy
 
 import numpy as np
 from dm_control.mujoco import wrapper
@@ -30,7 +34,7 @@ from dm_control.rl import control
 from dm_control.rl.control import PhysicsError
 from dm_env import specs
 
-from shoulder_bench import band_lines, full_arm, protocol, statics_full, trajectory, trajectory3
+from shoulder_bench import band_lines, full_arm, protocol, randomization, statics_full, trajectory, trajectory3
 from shoulder_bench.model import attach_law, install_callbacks
 from shoulder_bench.tasks import options as opt
 from shoulder_bench.tasks import sensing
@@ -41,7 +45,7 @@ WORKSPACES = ("3dof", "scapular_plane")
 SCAPULAR_PLANE_DEG = 30.0
 INITS = ("hold", "zero")
 OPTIONS = ("alpha", "omega_max", "init", "workspace", "muscle_model", "line_of_action", "delay_frames",
-           "obs_noise_deg")  # what the 3-DOF tasks accept
+           "obs_noise_deg", "randomize")  # what the 3-DOF tasks accept
 
 
 def scapular(elevation_deg, name: str = "") -> trajectory3.Trajectory3:
@@ -116,7 +120,7 @@ class Track3D(control.Task):
 
     def __init__(self, muscles=full_arm.MUSCLES, discrete=False, split="train", trajectory_=None,
                  alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", workspace="3dof",
-                 line_of_action="mjcf", delay_frames=0, obs_noise_deg=0.0, random=None, **unknown):
+                 line_of_action="mjcf", delay_frames=0, obs_noise_deg=0.0, randomize=None, random=None, **unknown):
         super().__init__()
         if unknown:
             raise ValueError(f"option(s) {sorted(unknown)} are not offered on the 3-DOF tasks (yet); they accept "
@@ -132,9 +136,13 @@ class Track3D(control.Task):
         # what the agent senses (shoulder_bench.tasks.sensing): k frames late, with Gaussian noise
         self.delay_frames = opt.integer("delay_frames", delay_frames, 0, sensing.MAX_DELAY_FRAMES)
         self.obs_noise_deg = opt.number("obs_noise_deg", obs_noise_deg, 0.0)
+        self.randomize = randomization.option(randomize)  # each episode's arm (shoulder_bench.randomization)
+        self.arm_draw: dict | None = None  # this episode's randomised arm (randomize)
+        self._nominal: randomization.Nominal | None = None
         self.history: collections.deque | None = None  # the last delay_frames + 1 sensed states, oldest first
         self.noise_z: np.ndarray | None = None  # (1, 6) standard normals of the observation now (None: no noise)
         self.noise_rng = sensing.noise_rng(opt.seed(random))
+        self.randomize_rng = randomization.rng(opt.seed(random))
         self.fixed = trajectory_
         self.rng = np.random.default_rng(opt.seed(random))
         self.target: trajectory3.Trajectory3 | None = None
@@ -146,6 +154,7 @@ class Track3D(control.Task):
     def reseed(self, seed) -> None:
         self.rng = np.random.default_rng(opt.seed(seed))
         self.noise_rng = sensing.noise_rng(opt.seed(seed))
+        self.randomize_rng = randomization.rng(opt.seed(seed))
 
     def draw_target(self, rng: np.random.Generator | None = None) -> trajectory3.Trajectory3:
         """The next episode's target: the fixed one, or drawn from `rng` (default the task's own)."""
@@ -165,8 +174,8 @@ class Track3D(control.Task):
                                   name="activation_change")
 
     def initialize_episode(self, physics):
-        if self.pose is None:
-            self.pose = full_arm.Pose(physics.model.ptr)
+        if self.pose is None:  # on a copy of the nominal model: randomize writes each episode's arm into physics'
+            self.pose = full_arm.Pose(copy.copy(physics.model.ptr))
             self.statics = statics_full.Statics(physics.law, self.pose)
         self.target = self.draw_target()
         self.frame = 0
@@ -175,8 +184,14 @@ class Track3D(control.Task):
         physics.data.qpos[:] = self.pose.qpos(self.target.angle_deg[0])[0]
         physics.data.qvel[:] = 0.0
         physics.data.ctrl[:] = 0.0
-        if self.init == "hold":
+        if self.init == "hold":  # the nominal arm's, randomised or not (as the 1-DOF tasks')
             physics.set_activations(self.muscles, self.statics.holding(self.target.angle_deg[0])[0])
+        if self.randomize is not None:
+            if self._nominal is None:
+                self._nominal = randomization.Nominal(physics.model.ptr, actuator_groups(physics.model.ptr,
+                                                                                        self.muscles))
+            self.arm_draw = randomization.draw(self.randomize_rng, self.randomize, len(self.muscles))
+            randomization.apply(physics.model.ptr, self._nominal, self.arm_draw)
         self.history = None if not self.delay_frames else collections.deque(
             [self.sense(physics)] * (self.delay_frames + 1), maxlen=self.delay_frames + 1)
         self.draw_noise()
@@ -228,6 +243,12 @@ class Track3D(control.Task):
         if self.frame >= self.target.frames:
             return 1.0
         return None
+
+
+def actuator_groups(m, muscles) -> list[list[int]]:
+    """Each muscle's actuator ids in model `m` (ld: its three bundles), for `randomization.Nominal`."""
+    names = [m.actuator(i).name for i in range(m.nu)]
+    return [[names.index(a) for a in full_arm.ACTUATORS[k]] for k in muscles]
 
 
 def make_physics(muscle_model: str = "fem", line_of_action: str = "mjcf") -> Physics3:

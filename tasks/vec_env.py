@@ -133,6 +133,54 @@ class Lockstep:
         for key in (k for k in self._SENSING if k in state):
             setattr(self, key, np.array(state[key], copy=True))
 
+    # --- the randomised arm (shoulder_bench.randomization): one model per copy, each episode's draw written into it --
+    _DRAWS = ("draw_strength", "draw_mass", "draw_load")  # states saved before randomize existed lack them
+
+    def _setup_randomize(self, seed, groups) -> None:
+        """Copy i's draws as the single env seeded seed + i's; `groups`: each muscle's actuator ids."""
+        self.rand_rngs = [randomization.rng(None if seed is None else seed + i) for i in range(self.num_envs)]
+        self.draw_strength = np.ones((self.num_envs, self.n))  # randomize: each copy's episode draw
+        self.draw_mass = np.ones(self.num_envs)
+        self.draw_load = np.zeros(self.num_envs)
+        if self.task.randomize is not None:
+            self._nominal = randomization.Nominal(self.sim.model, groups)
+            self.sim.own_models()
+
+    def draws(self, i: int) -> dict | None:
+        """Copy i's randomised arm of this episode (randomize; None otherwise), as the single env's `arm_draw`."""
+        if self.task.randomize is None:
+            return None
+        return {"strength": self.draw_strength[i].copy(), "mass_scale": float(self.draw_mass[i]),
+                "load_kg": float(self.draw_load[i])}
+
+    def _apply_draws(self, idx) -> None:
+        models = self.sim.own_models()
+        for i in idx:
+            randomization.apply(models[i], self._nominal, self.draws(i))
+
+    def _randomize_reset(self, idx) -> None:
+        """Copies `idx` start an episode: each draws its arm from its own generator, written into its model."""
+        if self.task.randomize is not None:
+            for i in idx:
+                d = randomization.draw(self.rand_rngs[i], self.task.randomize, self.n)
+                self.draw_strength[i], self.draw_mass[i], self.draw_load[i] = d["strength"], d["mass_scale"], \
+                    d["load_kg"]
+            self._apply_draws(idx)
+
+    def _randomize_state(self) -> dict:
+        return {"rand_rngs": [r.bit_generator.state for r in self.rand_rngs],
+                **{key: getattr(self, key).copy() for key in self._DRAWS}}
+
+    def _load_randomize(self, state: dict) -> None:
+        """The randomised arms of a saved state (`_randomize_state`), written into the copies' models; the caller
+        has checked that it was saved with the same randomize option."""
+        for rng, saved_rng in zip(self.rand_rngs, state.get("rand_rngs", [])):
+            rng.bit_generator.state = saved_rng
+        for key in (k for k in self._DRAWS if k in state):
+            setattr(self, key, np.array(state[key], copy=True))
+        if self.task.randomize is not None:
+            self._apply_draws(range(self.num_envs))
+
 
 class VecEnv(Lockstep):
     """`shoulder_bench.make_vec(name, num_envs, device, seed, **options)`; options as for `shoulder_bench.load`, and
@@ -192,27 +240,8 @@ class VecEnv(Lockstep):
         self.physiology = t.physiology
         self.excitation = np.zeros((self.num_envs, self.n))  # activation_dynamics: the command; else unused
         self.fatigue_state = np.zeros((self.num_envs, self.n, 3))  # fatigue: (M_A, M_R, M_F) per muscle
-        self.rand_rngs = [randomization.rng(None if seed is None else seed + i) for i in range(self.num_envs)]
-        self.draw_strength = np.ones((self.num_envs, self.n))  # randomize: each copy's episode draw
-        self.draw_mass = np.ones(self.num_envs)
-        self.draw_load = np.zeros(self.num_envs)
-        if t.randomize is not None:
-            names = [self.sim.model.actuator(i).name for i in range(self.sim.model.nu)]
-            groups = [[names.index(a) for a in arm_.ACTUATORS[m]] for m in self.muscles]
-            self._nominal = randomization.Nominal(self.sim.model, groups)
-            self.sim.own_models()
-
-    def draws(self, i: int) -> dict | None:
-        """Copy i's randomised arm of this episode (randomize; None otherwise), as the single env's `arm_draw`."""
-        if self.task.randomize is None:
-            return None
-        return {"strength": self.draw_strength[i].copy(), "mass_scale": float(self.draw_mass[i]),
-                "load_kg": float(self.draw_load[i])}
-
-    def _apply_draws(self, idx) -> None:
-        models = self.sim.own_models()
-        for i in idx:
-            randomization.apply(models[i], self._nominal, self.draws(i))
+        names = [self.sim.model.actuator(i).name for i in range(self.sim.model.nu)]
+        self._setup_randomize(seed, [[names.index(a) for a in arm_.ACTUATORS[m]] for m in self.muscles])
 
     # --- episodes ---------------------------------------------------------------------------------------------------
     def _reset(self, idx: np.ndarray) -> None:
@@ -229,12 +258,7 @@ class VecEnv(Lockstep):
         if self.sim.carry_warmstart:
             self.sim.warmstart[idx] = 0.0  # as mj_resetData
         self.act[idx] = statics.holding_activation(self.law, start) if self.task.init == "hold" else 0.0
-        if self.task.randomize is not None:
-            for i in idx:
-                d = randomization.draw(self.rand_rngs[i], self.task.randomize, self.n)
-                self.draw_strength[i], self.draw_mass[i], self.draw_load[i] = d["strength"], d["mass_scale"], \
-                    d["load_kg"]
-            self._apply_draws(idx)
+        self._randomize_reset(idx)
         if self.physiology:
             self.excitation[idx] = self.act[idx]
             self.fatigue_state[idx] = physiology.fresh_fatigue(self.act[idx])
@@ -330,7 +354,7 @@ class VecEnv(Lockstep):
 
     # --- checkpoints --------------------------------------------------------------------------------------------------
     _STATE = ("targets", "target_vel", "frames", "qpos", "qvel", "act", "_return", "_abs_err")
-    _PHYSIOLOGY = ("excitation", "fatigue_state", "draw_strength", "draw_mass", "draw_load")  # likewise
+    _PHYSIOLOGY = ("excitation", "fatigue_state")  # likewise
 
     def state_dict(self) -> dict:
         """Everything that decides the copies' future: physics state (with the constraint solver's warmstart),
@@ -341,7 +365,7 @@ class VecEnv(Lockstep):
         return {"num_envs": self.num_envs, "name": self.name, "rngs": [r.bit_generator.state for r in self.rngs],
                 "episode_length_buf": self.episode_length_buf.clone(), "finished": list(self._finished),
                 "warmstart": warm, **self._sensing_state(),
-                "physiology": self._physiology_key(), "rand_rngs": [r.bit_generator.state for r in self.rand_rngs],
+                "physiology": self._physiology_key(), **self._randomize_state(),
                 **{key: getattr(self, key).copy() for key in self._STATE + self._PHYSIOLOGY}}
 
     def _physiology_key(self) -> str:
@@ -362,12 +386,9 @@ class VecEnv(Lockstep):
         self._load_sensing(state)
         for rng, saved_rng in zip(self.rngs, state["rngs"]):
             rng.bit_generator.state = saved_rng
-        for rng, saved_rng in zip(self.rand_rngs, state.get("rand_rngs", [])):
-            rng.bit_generator.state = saved_rng
         for key in self._STATE + tuple(k for k in self._PHYSIOLOGY if k in state):
             setattr(self, key, np.array(state[key], copy=True))
-        if self.task.randomize is not None:
-            self._apply_draws(range(self.num_envs))
+        self._load_randomize(state)
         if self.sim.warmstart is not None and state.get("warmstart") is not None:
             self.sim.warmstart[:] = state["warmstart"]
         self.episode_length_buf = state["episode_length_buf"].clone().to(self.device)

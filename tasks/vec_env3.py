@@ -13,12 +13,12 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from shoulder_bench import full_arm, protocol, statics_full, trajectory3
+from shoulder_bench import full_arm, protocol, randomization, statics_full, trajectory3
 from shoulder_bench.arm import harden_couplings
 from shoulder_bench.simulator import BatchSimulator
 from shoulder_bench.tasks import TASKS_3DOF, check_name, sensing
 from shoulder_bench.tasks import options as options_check
-from shoulder_bench.tasks.track3d import Track3D, valid_range_deg
+from shoulder_bench.tasks.track3d import Track3D, actuator_groups, valid_range_deg
 from shoulder_bench.tasks.vec_env import Lockstep
 from shoulder_bench.tendon_law import TendonLaw
 
@@ -48,9 +48,12 @@ class VecEnv3(Lockstep):
         self.num_actions = self.n
         self.cfg = {"task": name, "muscle_model": muscle_model, **options}
         self.law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS, line_of_action=self.task.line_of_action)
-        # MuJoCo's RK4 with the compiled callbacks, one rollout per frame (the law reads each tendon's length)
-        self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread, path=full_arm.MODEL_FILE,
-                                  prepare=harden_couplings, engine="mujoco")
+        # MuJoCo's RK4 with the compiled callbacks, one rollout per frame (the law reads each tendon's length);
+        # randomize: one model per copy, compiled without the textures (randomization.physics_only_xml)
+        source = {"path": full_arm.MODEL_FILE} if self.task.randomize is None else {
+            "xml": randomization.physics_only_xml(full_arm.MODEL_FILE)}
+        self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread, prepare=harden_couplings,
+                                  engine="mujoco", **source)
         m = self.model = self.sim.model
         self.pose = full_arm.Pose(m)
         self.statics = statics_full.Statics(self.law, self.pose)
@@ -58,6 +61,7 @@ class VecEnv3(Lockstep):
         self.valid_lo, self.valid_hi = valid_range_deg(m)
         self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
         self._setup_sensing(seed)
+        self._setup_randomize(seed, actuator_groups(m, self.muscles))
         split_frames = int(round(trajectory3.SPLITS[self.task.split]["duration_s"] / protocol.FRAME_S))
         self.episode_frames = np.array([split_frames if t is None else t.frames for t in self.fixed])
         self.max_episode_length = int(self.episode_frames.max())
@@ -92,6 +96,7 @@ class VecEnv3(Lockstep):
         self._return[idx] = 0.0
         self.episode_length_buf[torch.as_tensor(idx)] = 0
         self._sense_reset(idx)
+        self._randomize_reset(idx)
 
     def _sense(self) -> np.ndarray:
         """(N, 6 + n): the true angles (deg), velocities (deg/s) and activations now."""
@@ -152,17 +157,23 @@ class VecEnv3(Lockstep):
         """Everything that decides the next frames: the copies' state and targets, every RNG, the delay buffer and
         the noise of the observation now, so a restored env continues exactly as this one would."""
         return {"num_envs": self.num_envs, "name": self.name, "rngs": [r.bit_generator.state for r in self.rngs],
-                **self._sensing_state(), **{k: getattr(self, k).copy() for k in self._STATE}}
+                "randomize": repr(self.task.randomize), **self._sensing_state(), **self._randomize_state(),
+                **{k: getattr(self, k).copy() for k in self._STATE}}
 
     def load_state_dict(self, state: dict) -> None:
         if state["num_envs"] != self.num_envs or state["name"] != self.name:
             raise ValueError(f"checkpoint env state is for {state['num_envs']} copies of {state['name']}, not "
                              f"{self.num_envs} of {self.name}")
+        saved = state.get("randomize", repr(None))
+        if saved != repr(self.task.randomize):
+            raise ValueError(f"env state saved with randomize={saved} cannot be restored into an env with "
+                             f"randomize={self.task.randomize!r}")
         self._load_sensing(state)
         for r, s in zip(self.rngs, state["rngs"]):
             r.bit_generator.state = s
         for k in self._STATE:
             setattr(self, k, np.array(state[k]))
+        self._load_randomize(state)
         # a copy: torch.as_tensor would share the frames array, and both count up each frame (every episode then
         # ran at twice the pace after a restore: a resumed 3-DOF run ended its episodes at half their length)
         self.episode_length_buf = torch.tensor(self.frames, dtype=torch.long, device=self.device)

@@ -1,5 +1,6 @@
 """The compiled muscle callbacks (shoulder_bench.native) against the Python ones: episodes, threads, odd models."""
 import copy
+import ctypes
 
 import mujoco
 import numpy as np
@@ -21,14 +22,16 @@ def _restore_default_callbacks():
 
 def test_offsets_are_found_and_native_is_the_default():
     assert native.AVAILABLE, native.REASON
-    assert set(native.OFFSETS) == {"actuator_user", "nuser_actuator", "nu", "qpos", "qvel", "ctrl", "actuator_length",
-                                   "actuator_velocity", "qfrc_passive"}
+    assert set(native.OFFSETS) == {"actuator_user", "actuator_gear", "nuser_actuator", "nu", "qpos", "qvel", "ctrl",
+                                   "actuator_length", "actuator_velocity", "qfrc_passive"}
     assert native.find_offsets() == native.OFFSETS  # the same again, from fresh probes
     install_callbacks()
     assert installed_callbacks() == "native" and mujoco.get_mjcb_act_gain() is native.GAIN
     assert mujoco.get_mjcb_passive() is native.PASSIVE
     m = mujoco.MjModel.from_xml_path(str(full_arm.MODEL_FILE))
     assert native.model_nu(m) == m.nu == 15
+    gear = int.from_bytes(ctypes.string_at(m._address + native.OFFSETS["actuator_gear"], 8), "little")
+    assert gear == m.actuator_gear.ctypes.data  # the field the passive callback reads a band tendon's gear from
 
 
 def _episode(name: str, use_native: bool) -> np.ndarray:
