@@ -133,3 +133,15 @@ def test_bad_randomize_values_are_refused_on_the_3dof_tasks():
         shoulder_bench.load("track_3dof", randomize={"strength": 5})
     with pytest.raises(ValueError, match="randomize"):
         shoulder_bench.make_vec("track_3dof_discrete", 2, randomize="load=2:1")
+
+
+def test_gymnasium_reports_the_3dof_episodes_draw():
+    import gymnasium as gym
+
+    env = gym.make("ShoulderBench/track_3dof-v0", randomize="strength=0.2,load=1")
+    _, info = env.reset(seed=3)
+    draw = info["randomization"]
+    assert draw["strength"].shape == (13,) and draw["load_kg"] == 1.0 and draw["mass_scale"] == 1.0
+    _, _, _, _, info = env.step(env.action_space.sample())
+    np.testing.assert_array_equal(info["randomization"]["strength"], draw["strength"])
+    env.close()
