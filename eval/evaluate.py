@@ -119,7 +119,8 @@ def policy_for(spec: str, task: str | None = None, options: dict | None = None) 
             from shoulder_bench.eval.reference3 import ReferenceController3
 
             lines = (options or {}).get("line_of_action", "mjcf")  # the muscles' line of action it plans with
-            return ReferenceController3(task, line_of_action=lines), {"task": task, "algo": "reference"}, task
+            cond = {k: v for k, v in (options or {}).items() if k in CONDITION_OPTIONS}
+            return ReferenceController3(task, line_of_action=lines, **cond), {"task": task, "algo": "reference"}, task
         cond = {k: v for k, v in (options or {}).items() if k in CONDITION_OPTIONS}
         return ReferenceController(task, **cond), {"task": task, "algo": "reference"}, task
     from shoulder_bench.train.policy import load_policy

@@ -6,8 +6,9 @@ Each frame, per copy: the desired coordinate accelerations
 the reduced inverse dynamics of the MuJoCo model on the couplings,
   tau = S^T M(q) S alpha + S^T qfrc_bias(q, S q')                    (gravity and velocity terms)
 and `statics_full.Statics.distribute` the activations within [a - 0.01, a + 0.01] and [0, 1] of least effort that
-produce tau, the force law at the tendons' current lengths and lengthening rates. As the 1-DOF reference
-(`eval.reference`): a model-based baseline on the board and a check that the model is controllable.
+produce tau, the force law at the tendons' current lengths and lengthening rates: the task's law (its line of action
+and shoulder condition, `tasks.track3d.law_for`). As the 1-DOF reference (`eval.reference`): a model-based baseline
+on the board and a check that the model is controllable.
 """
 from __future__ import annotations
 
@@ -15,21 +16,25 @@ import mujoco
 import numpy as np
 import torch
 
-from shoulder_bench import full_arm, protocol
+from shoulder_bench import conditions, full_arm, protocol
 from shoulder_bench.statics_full import Statics
 from shoulder_bench.tasks import TASKS_3DOF, check_name
-from shoulder_bench.tendon_law import TendonLaw
 
 
 class ReferenceController3:
     """policy(obs (B, 25) float32 tensor) -> changes of activation (B, 13), for `evaluate`."""
 
     def __init__(self, task: str, muscle_model: str = "fem", kp: float = 60.0, kv: float = 14.0,
-                 line_of_action: str = "mjcf", **options):
+                 line_of_action: str = "mjcf", condition: str | None = None, tear_fraction: float | None = None,
+                 weakness_fraction: float | None = None, **options):
+        from shoulder_bench.tasks.track3d import law_for
+
         muscles, discrete, _, _ = TASKS_3DOF[check_name(task)]
         if discrete:
             raise ValueError(f"the reference controller acts continuously; use {task.replace('_discrete', '')}")
-        self.law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS, line_of_action=line_of_action)
+        # it plans with the arms the muscles act along and the shoulder's condition, as the task simulates them
+        factors = conditions.factors(condition, muscles, tear_fraction, weakness_fraction)
+        self.law = law_for(muscle_model, line_of_action, factors)
         self.pose = full_arm.Pose()
         self.statics = Statics(self.law, self.pose)
         self.kp, self.kv = kp, kv

@@ -253,7 +253,8 @@ def render_video(out: Path | str, task: str | None = None, policy: str | None = 
         task = loaded[2]
     if task is not None and is_3dof(task):  # the full shoulder (eval.render3)
         if condition is not None:
-            raise ValueError(f"--condition: the conditions are the 1-DOF tasks'; {task} has none (yet)")
+            raise ValueError(f"--condition: the 3-DOF video does not show a condition yet; {task} takes one in "
+                             "eval and train (--condition)")
         from shoulder_bench.eval.render3 import render_video3
 
         return render_video3(out, task, policy, trajectory, seconds, width, height, fmt, fps, camera, seed,

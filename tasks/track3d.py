@@ -15,7 +15,9 @@ Options (OPTIONS): the reward's alpha and omega_max, init, workspace, line_of_ac
 action, `band_lines`), what the agent senses, delay_frames and obs_noise_deg (`sensing`, as the 1-DOF tasks'), and
 randomize (`shoulder_bench.randomization`, as the 1-DOF tasks': each episode's muscle strengths through the actuators'
 gear, all of a muscle's tendons by one draw, on the band's line of action too (`native.passive` reads the gear), the
-humerus mass and a load at the elbow, MoBL's humerus frame as the v2 arm's).
+humerus mass and a load at the elbow, MoBL's humerus frame as the v2 arm's), and a shoulder condition (`condition`,
+`tear_fraction`, `weakness_fraction`: `shoulder_bench.conditions`' tears and weakness scale or remove muscles' tabled
+forces, `law_for`; the reference controller plans with them; ld_transfer, a rerouting, is the v2 arm's only).
 
 Targets (`trajectory3`): random quintic segments per coordinate (train 10 s, test 20 s, wider ranges), a CSV file
 (time_s, plane_deg, elevation_deg, rotation_deg), an ADL name, or (K, 3) degrees. `workspace="scapular_plane"`:
@@ -34,7 +36,16 @@ from dm_control.rl import control
 from dm_control.rl.control import PhysicsError
 from dm_env import specs
 
-from shoulder_bench import band_lines, full_arm, protocol, randomization, statics_full, trajectory, trajectory3
+from shoulder_bench import (
+    band_lines,
+    conditions,
+    full_arm,
+    protocol,
+    randomization,
+    statics_full,
+    trajectory,
+    trajectory3,
+)
 from shoulder_bench.model import attach_law, install_callbacks
 from shoulder_bench.tasks import options as opt
 from shoulder_bench.tasks import sensing
@@ -45,7 +56,8 @@ WORKSPACES = ("3dof", "scapular_plane")
 SCAPULAR_PLANE_DEG = 30.0
 INITS = ("hold", "zero")
 OPTIONS = ("alpha", "omega_max", "init", "workspace", "muscle_model", "line_of_action", "delay_frames",
-           "obs_noise_deg", "randomize")  # what the 3-DOF tasks accept
+           "obs_noise_deg", "randomize", "condition", "tear_fraction",
+           "weakness_fraction")  # what the 3-DOF tasks accept
 
 
 def scapular(elevation_deg, name: str = "") -> trajectory3.Trajectory3:
@@ -120,7 +132,8 @@ class Track3D(control.Task):
 
     def __init__(self, muscles=full_arm.MUSCLES, discrete=False, split="train", trajectory_=None,
                  alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", workspace="3dof",
-                 line_of_action="mjcf", delay_frames=0, obs_noise_deg=0.0, randomize=None, random=None, **unknown):
+                 line_of_action="mjcf", delay_frames=0, obs_noise_deg=0.0, randomize=None, condition=None,
+                 tear_fraction=None, weakness_fraction=None, random=None, **unknown):
         super().__init__()
         if unknown:
             raise ValueError(f"option(s) {sorted(unknown)} are not offered on the 3-DOF tasks (yet); they accept "
@@ -137,6 +150,14 @@ class Track3D(control.Task):
         self.delay_frames = opt.integer("delay_frames", delay_frames, 0, sensing.MAX_DELAY_FRAMES)
         self.obs_noise_deg = opt.number("obs_noise_deg", obs_noise_deg, 0.0)
         self.randomize = randomization.option(randomize)  # each episode's arm (shoulder_bench.randomization)
+        # the shoulder's condition (shoulder_bench.conditions): its force factors scale the law (law_for)
+        if conditions.geometry(condition) is not None:
+            raise ValueError(f"condition {condition!r} reroutes a muscle, which the v2 arm's 1-DOF tasks model (their "
+                             "own model and tables); the full shoulder has no rerouted model yet: use a tear or a "
+                             "weakness here")
+        self.factors = conditions.factors(condition, self.muscles, tear_fraction, weakness_fraction)
+        self.condition = {k: v for k, v in (("condition", condition), ("tear_fraction", tear_fraction),
+                                            ("weakness_fraction", weakness_fraction)) if v is not None}
         self.arm_draw: dict | None = None  # this episode's randomised arm (randomize)
         self._nominal: randomization.Nominal | None = None
         self.history: collections.deque | None = None  # the last delay_frames + 1 sensed states, oldest first
@@ -251,8 +272,15 @@ def actuator_groups(m, muscles) -> list[list[int]]:
     return [[names.index(a) for a in full_arm.ACTUATORS[k]] for k in muscles]
 
 
-def make_physics(muscle_model: str = "fem", line_of_action: str = "mjcf") -> Physics3:
+def law_for(muscle_model: str = "fem", line_of_action: str = "mjcf", factors: dict | None = None) -> TendonLaw:
+    """The full shoulder's law: its muscles along `line_of_action`, each muscle's tabled force (active and passive)
+    times its factor of a condition (`conditions.factors`; none: intact)."""
     law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS, line_of_action=line_of_action)
+    return law.scaled(factors) if factors else law
+
+
+def make_physics(muscle_model: str = "fem", line_of_action: str = "mjcf", factors: dict | None = None) -> Physics3:
+    law = law_for(muscle_model, line_of_action, factors)
     model = full_arm.compile_full()
     attach_law(model, law)
     install_callbacks()
@@ -268,5 +296,6 @@ def make_env(muscles, discrete=False, split="train", seed=None, trajectory=None,
         raise ValueError(f"muscle_model {muscle_model!r}: the full shoulder has FEM tables only ('fem')")
     task = Track3D(muscles, discrete=discrete, split=split, trajectory_=trajectory3.as_trajectory(trajectory),
                    random=seed, **options)
-    return control.Environment(make_physics(muscle_model, task.line_of_action), task, time_limit=float("inf"),
+    return control.Environment(make_physics(muscle_model, task.line_of_action, task.factors), task,
+                               time_limit=float("inf"),
                                control_timestep=protocol.FRAME_S)

@@ -18,9 +18,8 @@ from shoulder_bench.arm import harden_couplings
 from shoulder_bench.simulator import BatchSimulator
 from shoulder_bench.tasks import TASKS_3DOF, check_name, sensing
 from shoulder_bench.tasks import options as options_check
-from shoulder_bench.tasks.track3d import Track3D, actuator_groups, valid_range_deg
+from shoulder_bench.tasks.track3d import Track3D, actuator_groups, law_for, valid_range_deg
 from shoulder_bench.tasks.vec_env import Lockstep
-from shoulder_bench.tendon_law import TendonLaw
 
 
 class VecEnv3(Lockstep):
@@ -47,7 +46,7 @@ class VecEnv3(Lockstep):
         self.muscles, self.discrete, self.n = tuple(muscles), discrete, len(muscles)
         self.num_actions = self.n
         self.cfg = {"task": name, "muscle_model": muscle_model, **options}
-        self.law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS, line_of_action=self.task.line_of_action)
+        self.law = law_for(muscle_model, self.task.line_of_action, self.task.factors)  # the task's condition
         # MuJoCo's RK4 with the compiled callbacks, one rollout per frame (the law reads each tendon's length);
         # randomize: one model per copy, compiled without the textures (randomization.physics_only_xml)
         source = {"path": full_arm.MODEL_FILE} if self.task.randomize is None else {

@@ -95,7 +95,7 @@ def test_bad_options_and_actions_are_clear_errors():
     with pytest.raises(ValueError, match="not offered on the 3-DOF tasks"):
         shoulder_bench.load("track_3dof", activation_dynamics=True)
     with pytest.raises(ValueError, match="not offered on the 3-DOF tasks"):
-        check_options("track_3dof", condition="ssp_tear")
+        check_options("track_3dof", fatigue=True)
     with pytest.raises(ValueError, match="workspace"):
         shoulder_bench.load("track_3dof", workspace="moon")
     with pytest.raises(ValueError, match="FEM tables only"):
@@ -234,7 +234,7 @@ def test_render_a_3dof_episode(tmp_path):
                         seconds=0.5, width=96, height=64, gif=True)
     assert (tmp_path / "arm.gif").stat().st_size > 0 and info["frames"] == 10 and info["task"] == "track_3dof"
     assert info["controller"] == "reference controller" and not info["crashed"]
-    with pytest.raises(ValueError, match="conditions are the 1-DOF tasks'"):
+    with pytest.raises(ValueError, match="the 3-DOF video does not show a condition yet"):
         render_video(tmp_path / "x.gif", task="track_3dof", gif=True, condition="ssp_tear", seconds=0.5)
 
 
