@@ -164,3 +164,14 @@ def frame_plan(command, activation, fatigue_state, steps: int, h: float, dynamic
         else:
             acting[:, s] = mid
     return acting, a, state
+
+
+def frame(excitation, activation, fatigue_state, applied, steps: int, h: float, dynamics: bool,
+          fatigue: Fatigue | None):
+    """One frame of the physiology options for a batch (B, n), from the action's change `applied`: the command is
+    the excitation (with `dynamics`) or the activation plus the change, within [0, 1]; then `frame_plan`. Returns
+    (acting (B, steps, n), excitation (the command), activation, fatigue state) at the frame's end (the fatigue state
+    as given without fatigue). The single envs (with B = 1) and the batched ones call it alike."""
+    command = np.clip((excitation if dynamics else activation) + applied, 0.0, 1.0)
+    acting, a, state = frame_plan(command, activation, fatigue_state, steps, h, dynamics, fatigue)
+    return acting, command, a, fatigue_state if state is None else state

@@ -29,6 +29,20 @@ MAX_JOINT_DAMPING = 10.0  # N m s/rad: the sensitivity runs use 0.1-1.0; far abo
 INITS = ("hold", "zero")  # start at rest on the target with the holding activations, or with none
 
 
+def physiology_frame(task, physics, delta: np.ndarray) -> np.ndarray:
+    """The single env's frame of the physiology options (`physiology.frame` with one copy): moves the task's
+    excitation, activation and fatigue state to the frame's end; returns the activation of each physics step
+    (steps, n), the plan `Physics.step` applies. The 1-DOF and 3-DOF tasks share it."""
+    steps = int(round(protocol.FRAME_S / physics.model.opt.timestep))
+    fatigue = None if task.fatigue_state is None else task.fatigue_state[None]
+    acting, command, a, state = physiology.frame(task.excitation[None], task.activation[None], fatigue, delta[None],
+                                                 steps, float(physics.model.opt.timestep), task.activation_dynamics,
+                                                 task.fatigue)
+    task.excitation, task.activation = command[0], a[0]
+    task.fatigue_state = None if state is None else state[0]
+    return acting[0]
+
+
 class Physics(_Physics):
     """The shoulder (the locked v2 arm, `shoulder_bench.arm`) with named accessors (degrees at this surface, radians
     inside MuJoCo). The angle is the thoracohumeral elevation `shoulder_elv`; the girdle joints follow it."""
@@ -217,14 +231,7 @@ class Abduction(control.Task):
         if not self.physiology:
             physics.set_activations(self.muscles, np.clip(physics.data.ctrl[self._ids] + delta, 0.0, 1.0))
             return
-        command = np.clip((self.excitation if self.activation_dynamics else self.activation) + delta, 0.0, 1.0)
-        steps = int(round(protocol.FRAME_S / physics.model.opt.timestep))
-        acting, a, state = physiology.frame_plan(
-            command[None], self.activation[None], None if self.fatigue_state is None else self.fatigue_state[None],
-            steps, float(physics.model.opt.timestep), self.activation_dynamics, self.fatigue)
-        physics.plan = (self.muscles, acting[0])
-        self.excitation, self.activation = command, a[0]
-        self.fatigue_state = None if state is None else state[0]
+        physics.plan = (self.muscles, physiology_frame(self, physics, delta))
 
     def activations_now(self, physics) -> np.ndarray:
         """(n,) the muscles' activations as observed: the activation state with the physiology options, else the

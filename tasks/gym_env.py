@@ -82,14 +82,14 @@ class ShoulderEnv(gym.Env):
         if self.dofs == 3:
             info = {"angle_deg": physics.coordinates_deg(), "target_deg": task.target.angle_deg[
                 min(task.frame, task.target.frames)].copy(), "error_deg": task.error_deg(physics),
-                "activations": physics.activations(task.muscles).copy(), "crashed": bool(physics.failed())}
+                "activations": task.activations_now(physics), "crashed": bool(physics.failed())}
         else:
             info = {"angle_deg": physics.angle_deg(), "target_deg": task.target_deg(),
                     "activations": task.activations_now(physics), "crashed": bool(physics.failed())}
-            if task.activation_dynamics:
-                info["excitations"] = task.excitation.copy()
-            if task.fatigue is not None:
-                info["fatigue"] = task.fatigue_state.copy()
+        if task.activation_dynamics:
+            info["excitations"] = task.excitation.copy()
+        if task.fatigue is not None:
+            info["fatigue"] = task.fatigue_state.copy()
         if task.randomize is not None:
             info["randomization"] = {k: np.copy(v) if k == "strength" else v for k, v in task.arm_draw.items()}
         return info

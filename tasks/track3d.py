@@ -17,7 +17,9 @@ randomize (`shoulder_bench.randomization`, as the 1-DOF tasks': each episode's m
 gear, all of a muscle's tendons by one draw, on the band's line of action too (`native.passive` reads the gear), the
 humerus mass and a load at the elbow, MoBL's humerus frame as the v2 arm's), and a shoulder condition (`condition`,
 `tear_fraction`, `weakness_fraction`: `shoulder_bench.conditions`' tears and weakness scale or remove muscles' tabled
-forces, `law_for`; the reference controller plans with them; ld_transfer, a rerouting, is the v2 arm's only).
+forces, `law_for`; the reference controller plans with them; ld_transfer, a rerouting, is the v2 arm's only), and
+the muscle physiology (`activation_dynamics`, `fatigue`: `shoulder_bench.physiology`, the 1-DOF tasks' per-step
+activation path, `abduction.physiology_frame`).
 
 Targets (`trajectory3`): random quintic segments per coordinate (train 10 s, test 20 s, wider ranges), a CSV file
 (time_s, plane_deg, elevation_deg, rotation_deg), an ADL name, or (K, 3) degrees. `workspace="scapular_plane"`:
@@ -31,15 +33,14 @@ import copy
 
 import numpy as np
 from dm_control.mujoco import wrapper
-from dm_control.mujoco.engine import Physics as _Physics
 from dm_control.rl import control
-from dm_control.rl.control import PhysicsError
 from dm_env import specs
 
 from shoulder_bench import (
     band_lines,
     conditions,
     full_arm,
+    physiology,
     protocol,
     randomization,
     statics_full,
@@ -49,6 +50,7 @@ from shoulder_bench import (
 from shoulder_bench.model import attach_law, install_callbacks
 from shoulder_bench.tasks import options as opt
 from shoulder_bench.tasks import sensing
+from shoulder_bench.tasks.abduction import Physics, physiology_frame
 from shoulder_bench.tendon_law import TendonLaw
 
 VALID_MARGIN_DEG = 30.0  # as the 1-DOF tasks' (arm.VALID_MARGIN_DEG)
@@ -56,8 +58,8 @@ WORKSPACES = ("3dof", "scapular_plane")
 SCAPULAR_PLANE_DEG = 30.0
 INITS = ("hold", "zero")
 OPTIONS = ("alpha", "omega_max", "init", "workspace", "muscle_model", "line_of_action", "delay_frames",
-           "obs_noise_deg", "randomize", "condition", "tear_fraction",
-           "weakness_fraction")  # what the 3-DOF tasks accept
+           "obs_noise_deg", "randomize", "condition", "tear_fraction", "weakness_fraction", "activation_dynamics",
+           "fatigue")  # what the 3-DOF tasks accept
 
 
 def scapular(elevation_deg, name: str = "") -> trajectory3.Trajectory3:
@@ -75,11 +77,10 @@ def valid_range_deg(m) -> tuple[np.ndarray, np.ndarray]:
     return ranges[:, 0] - VALID_MARGIN_DEG, ranges[:, 1] + VALID_MARGIN_DEG
 
 
-class Physics3(_Physics):
-    """The full shoulder with named accessors (degrees at this surface)."""
+class Physics3(Physics):
+    """The full shoulder with named accessors (degrees at this surface); `step` and its per-physics-step activation
+    `plan` (the physiology options) are the 1-DOF tasks' `abduction.Physics`'."""
 
-    crashed = False
-    _failed = False
 
     def _adr(self):
         adr = self.__dict__.get("_adr3")
@@ -108,15 +109,6 @@ class Physics3(_Physics):
     def activations(self, muscles) -> np.ndarray:
         return self.data.ctrl[[self.model.name2id(full_arm.ACTUATORS[m][0], "actuator") for m in muscles]]
 
-    def step(self, nstep: int = 1) -> None:
-        try:
-            super().step(nstep)
-        except PhysicsError:
-            self.crashed = True
-
-    def failed(self) -> bool:
-        return self._failed
-
     def check_failure(self) -> bool:
         q, v, lo, hi = self._adr()
         finite = bool(np.isfinite(self.data.qpos).all() and np.isfinite(self.data.qvel).all())
@@ -133,7 +125,8 @@ class Track3D(control.Task):
     def __init__(self, muscles=full_arm.MUSCLES, discrete=False, split="train", trajectory_=None,
                  alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", workspace="3dof",
                  line_of_action="mjcf", delay_frames=0, obs_noise_deg=0.0, randomize=None, condition=None,
-                 tear_fraction=None, weakness_fraction=None, random=None, **unknown):
+                 tear_fraction=None, weakness_fraction=None, activation_dynamics=False, fatigue=False, random=None,
+                 **unknown):
         super().__init__()
         if unknown:
             raise ValueError(f"option(s) {sorted(unknown)} are not offered on the 3-DOF tasks (yet); they accept "
@@ -150,6 +143,11 @@ class Track3D(control.Task):
         self.delay_frames = opt.integer("delay_frames", delay_frames, 0, sensing.MAX_DELAY_FRAMES)
         self.obs_noise_deg = opt.number("obs_noise_deg", obs_noise_deg, 0.0)
         self.randomize = randomization.option(randomize)  # each episode's arm (shoulder_bench.randomization)
+        # muscle physiology (shoulder_bench.physiology), as the 1-DOF tasks'
+        self.activation_dynamics = bool(opt.flag("activation_dynamics", activation_dynamics))
+        self.fatigue = physiology.fatigue_option(fatigue)
+        self.physiology = self.activation_dynamics or self.fatigue is not None  # the per-step activation path
+        self.excitation = self.activation = self.fatigue_state = None  # (n,), (n,), (n, 3) with `physiology`
         # the shoulder's condition (shoulder_bench.conditions): its force factors scale the law (law_for)
         if conditions.geometry(condition) is not None:
             raise ValueError(f"condition {condition!r} reroutes a muscle, which the v2 arm's 1-DOF tasks model (their "
@@ -213,6 +211,10 @@ class Track3D(control.Task):
                                                                                         self.muscles))
             self.arm_draw = randomization.draw(self.randomize_rng, self.randomize, len(self.muscles))
             randomization.apply(physics.model.ptr, self._nominal, self.arm_draw)
+        if self.physiology:
+            self.activation = physics.activations(self.muscles).copy()
+            self.excitation = self.activation.copy()
+            self.fatigue_state = None if self.fatigue is None else physiology.fresh_fatigue(self.activation)
         self.history = None if not self.delay_frames else collections.deque(
             [self.sense(physics)] * (self.delay_frames + 1), maxlen=self.delay_frames + 1)
         self.draw_noise()
@@ -220,7 +222,15 @@ class Track3D(control.Task):
     def before_step(self, action, physics):
         applied, sent = protocol.to_delta(action, len(self.muscles), self.discrete)
         self.sent = sent[0]
-        physics.set_activations(self.muscles, np.clip(physics.activations(self.muscles) + applied[0], 0.0, 1.0))
+        if self.physiology:  # the activation of each physics step (abduction.physiology_frame)
+            physics.plan = (self.muscles, physiology_frame(self, physics, applied[0]))
+        else:
+            physics.set_activations(self.muscles, np.clip(physics.activations(self.muscles) + applied[0], 0.0, 1.0))
+
+    def activations_now(self, physics) -> np.ndarray:
+        """(n,) the muscles' activations as observed: the activation state with the physiology options, else the
+        activation in force (ctrl)."""
+        return self.activation.copy() if self.physiology else physics.activations(self.muscles).copy()
 
     def after_step(self, physics):
         self.frame += 1
@@ -232,7 +242,7 @@ class Track3D(control.Task):
     def sense(self, physics) -> np.ndarray:
         """(1, 6 + n): the true angles (deg), velocities (deg/s) and activations now."""
         return sensing.state(physics.coordinates_deg()[None], physics.velocities_deg()[None],
-                             physics.activations(self.muscles))
+                             self.activations_now(physics))
 
     def draw_noise(self) -> None:
         """The noise of the observation of this frame: drawn once per reset and per step, whoever reads it."""

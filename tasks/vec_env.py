@@ -5,13 +5,11 @@ callback path (`simulator.BatchSimulator`), so a batched episode equals a single
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 import torch
 
 from shoulder_bench import arm as arm_
-from shoulder_bench import physiology, protocol, randomization, statics
+from shoulder_bench import protocol, randomization, statics
 from shoulder_bench import trajectory as targets
 from shoulder_bench.arm import harden_couplings
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
@@ -19,9 +17,7 @@ from shoulder_bench.simulator import BatchSimulator
 from shoulder_bench.tasks import TASKS, check_name, sensing
 from shoulder_bench.tasks import options as options_check
 from shoulder_bench.tasks.abduction import VALID_MARGIN_DEG, Abduction
-
-if TYPE_CHECKING:
-    from tensordict import TensorDict
+from shoulder_bench.tasks.lockstep import Lockstep
 
 
 def batch_engine() -> str:
@@ -33,153 +29,6 @@ def batch_engine() -> str:
 
 
 MAX_ABS = 1e10  # MuJoCo's mjMAXVAL: beyond it the single env's MuJoCo would warn (a crash)
-
-
-class Lockstep:
-    """What the batched envs (1-DOF `VecEnv`, 3-DOF `vec_env3.VecEnv3`) share: observations as a TensorDict from
-    `observation_array()`, `step` as `advance` (the frame in arrays) plus that TensorDict, reset of every copy
-    through `_reset(idx)`, the returns of finished episodes.
-
-    The interface is rsl-rl's `VecEnv` (num_envs, num_actions, max_episode_length, episode_length_buf, device, cfg,
-    get_observations, step, reset), which rsl-rl uses by duck typing only; its abstract class is not the base here
-    because importing it imports tensordict, and tensordict torch._dynamo (1.4 s of the `eval` command's start-up,
-    measured with python -X importtime): evaluation steps the copies with `advance` and reads `observation_array`,
-    and only training, which needs the TensorDict, imports it (on the first `step` or `get_observations`)."""
-
-    DONE_DTYPE = torch.long  # of the dones `step` returns
-
-    def observation_tensor(self) -> torch.Tensor:
-        """(N, obs) float32 on the env's device: what the policy sees (the TensorDict's "policy" entry)."""
-        return torch.as_tensor(self.observation_array(), dtype=torch.float32, device=self.device)
-
-    def _observation(self) -> TensorDict:
-        from tensordict import TensorDict
-
-        flat = self.observation_tensor()
-        return TensorDict({"policy": flat, "critic": flat.clone()}, batch_size=[self.num_envs], device=self.device)
-
-    def get_observations(self) -> TensorDict:
-        return self._observation()
-
-    def reset(self) -> TensorDict:
-        self._reset(np.arange(self.num_envs))
-        return self._observation()
-
-    def step(self, actions) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
-        """rsl-rl's step: `advance`, then the observations as a TensorDict, rewards (float32) and dones."""
-        reward, done, extras = self.advance(actions)
-        return (self._observation(), torch.as_tensor(reward, dtype=torch.float32, device=self.device),
-                torch.as_tensor(done, dtype=self.DONE_DTYPE, device=self.device), extras)
-
-    def finished_returns(self) -> list[float]:
-        """Returns of the episodes that ended since the last call."""
-        out, self._finished = self._finished, []
-        return out
-
-    # --- what the agent senses (shoulder_bench.tasks.sensing): the delay buffer and the noise, per copy -------------
-    SENSED_DOFS = 1  # coordinates whose angle and velocity are sensed (VecEnv3: 3)
-    _SENSING = ("obs_history", "noise_z")  # states saved before these options existed lack them: defaults only
-
-    def _setup_sensing(self, seed) -> None:
-        """The task's delay_frames and obs_noise_deg, copy i's noise drawn as the single env seeded seed + i's."""
-        d = self.SENSED_DOFS
-        self.delay_frames, self.obs_noise_deg = self.task.delay_frames, self.task.obs_noise_deg
-        self.noise_rngs = [sensing.noise_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
-        self.obs_history = np.zeros((self.num_envs, self.delay_frames + 1, 2 * d + self.n))  # oldest first; k > 0
-        self.noise_z = np.zeros((self.num_envs, 2 * d))  # standard normals of each copy's observation now
-
-    def _sense_reset(self, idx) -> None:
-        """Copies `idx` start an episode: their delay buffer holds the state now, their noise is drawn anew."""
-        if self.delay_frames:
-            self.obs_history[idx] = self._sense()[idx][:, None, :]
-        self._draw_noise(idx)
-
-    def _sense_frame(self) -> None:
-        """After a frame of every copy: the state now joins the delay buffer, every copy draws its noise."""
-        if self.delay_frames:
-            self.obs_history = np.concatenate([self.obs_history[:, 1:], self._sense()[:, None, :]], axis=1)
-        self._draw_noise(range(self.num_envs))
-
-    def _draw_noise(self, idx) -> None:
-        """Each copy in `idx` draws the noise of its observation now from its own generator, as the single env."""
-        if self.obs_noise_deg > 0:
-            for i in idx:
-                self.noise_z[i] = sensing.draw(self.noise_rngs[i], self.SENSED_DOFS)[0]
-
-    def _sensed(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(angles, velocities, activations) as the agent sees them: delay_frames late, noisy; angles (N,) for one
-        sensed coordinate, else (N, d)."""
-        d = self.SENSED_DOFS
-        s = self.obs_history[:, 0] if self.delay_frames else self._sense()
-        angle, velocity = (s[:, 0], s[:, 1]) if d == 1 else (s[:, :d], s[:, d:2 * d])
-        angle, velocity = sensing.noisy(angle, velocity, self.obs_noise_deg,
-                                        self.noise_z if self.obs_noise_deg > 0 else None)
-        return angle, velocity, s[:, 2 * d:]
-
-    def _sensing_state(self) -> dict:
-        return {"delay_frames": self.delay_frames, "obs_noise_deg": self.obs_noise_deg,
-                "noise_rngs": [r.bit_generator.state for r in self.noise_rngs],
-                **{key: getattr(self, key).copy() for key in self._SENSING}}
-
-    def _load_sensing(self, state: dict) -> None:
-        """The sensing part of a saved state (`_sensing_state`); ValueError if saved with other sensing options."""
-        saved = (state.get("delay_frames", 0), state.get("obs_noise_deg", 0.0))
-        if saved != (self.delay_frames, self.obs_noise_deg):
-            raise ValueError(f"env state saved with delay_frames={saved[0]}, obs_noise_deg={saved[1]:g} cannot be "
-                             f"restored into an env with delay_frames={self.delay_frames}, "
-                             f"obs_noise_deg={self.obs_noise_deg:g}")
-        for rng, saved_rng in zip(self.noise_rngs, state.get("noise_rngs", [])):
-            rng.bit_generator.state = saved_rng
-        for key in (k for k in self._SENSING if k in state):
-            setattr(self, key, np.array(state[key], copy=True))
-
-    # --- the randomised arm (shoulder_bench.randomization): one model per copy, each episode's draw written into it --
-    _DRAWS = ("draw_strength", "draw_mass", "draw_load")  # states saved before randomize existed lack them
-
-    def _setup_randomize(self, seed, groups) -> None:
-        """Copy i's draws as the single env seeded seed + i's; `groups`: each muscle's actuator ids."""
-        self.rand_rngs = [randomization.rng(None if seed is None else seed + i) for i in range(self.num_envs)]
-        self.draw_strength = np.ones((self.num_envs, self.n))  # randomize: each copy's episode draw
-        self.draw_mass = np.ones(self.num_envs)
-        self.draw_load = np.zeros(self.num_envs)
-        if self.task.randomize is not None:
-            self._nominal = randomization.Nominal(self.sim.model, groups)
-            self.sim.own_models()
-
-    def draws(self, i: int) -> dict | None:
-        """Copy i's randomised arm of this episode (randomize; None otherwise), as the single env's `arm_draw`."""
-        if self.task.randomize is None:
-            return None
-        return {"strength": self.draw_strength[i].copy(), "mass_scale": float(self.draw_mass[i]),
-                "load_kg": float(self.draw_load[i])}
-
-    def _apply_draws(self, idx) -> None:
-        models = self.sim.own_models()
-        for i in idx:
-            randomization.apply(models[i], self._nominal, self.draws(i))
-
-    def _randomize_reset(self, idx) -> None:
-        """Copies `idx` start an episode: each draws its arm from its own generator, written into its model."""
-        if self.task.randomize is not None:
-            for i in idx:
-                d = randomization.draw(self.rand_rngs[i], self.task.randomize, self.n)
-                self.draw_strength[i], self.draw_mass[i], self.draw_load[i] = d["strength"], d["mass_scale"], \
-                    d["load_kg"]
-            self._apply_draws(idx)
-
-    def _randomize_state(self) -> dict:
-        return {"rand_rngs": [r.bit_generator.state for r in self.rand_rngs],
-                **{key: getattr(self, key).copy() for key in self._DRAWS}}
-
-    def _load_randomize(self, state: dict) -> None:
-        """The randomised arms of a saved state (`_randomize_state`), written into the copies' models; the caller
-        has checked that it was saved with the same randomize option."""
-        for rng, saved_rng in zip(self.rand_rngs, state.get("rand_rngs", [])):
-            rng.bit_generator.state = saved_rng
-        for key in (k for k in self._DRAWS if k in state):
-            setattr(self, key, np.array(state[key], copy=True))
-        if self.task.randomize is not None:
-            self._apply_draws(range(self.num_envs))
 
 
 class VecEnv(Lockstep):
@@ -211,7 +60,8 @@ class VecEnv(Lockstep):
         self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread, prepare=harden_couplings,
                                   engine=batch_engine(), **source)
         self.sim.model.dof_damping[self.sim.dadr] = self.task.joint_damping
-        self._setup_physiology(seed)
+        names = [self.sim.model.actuator(i).name for i in range(self.sim.model.nu)]
+        self._setup_physiology(seed, [[names.index(a) for a in arm_.ACTUATORS[m]] for m in self.muscles])
         self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
         self._setup_sensing(seed)
         split_frames = int(round(targets.SPLITS[self.task.split]["duration_s"] / protocol.FRAME_S))
@@ -233,16 +83,6 @@ class VecEnv(Lockstep):
         self._abs_err = np.zeros(self.num_envs)
         self._reset(np.arange(self.num_envs))
 
-    def _setup_physiology(self, seed) -> None:
-        """State of the physiology options (`shoulder_bench.physiology`, `shoulder_bench.randomization`), as the single
-        env seeded seed + i keeps it for copy i."""
-        t = self.task
-        self.physiology = t.physiology
-        self.excitation = np.zeros((self.num_envs, self.n))  # activation_dynamics: the command; else unused
-        self.fatigue_state = np.zeros((self.num_envs, self.n, 3))  # fatigue: (M_A, M_R, M_F) per muscle
-        names = [self.sim.model.actuator(i).name for i in range(self.sim.model.nu)]
-        self._setup_randomize(seed, [[names.index(a) for a in arm_.ACTUATORS[m]] for m in self.muscles])
-
     # --- episodes ---------------------------------------------------------------------------------------------------
     def _reset(self, idx: np.ndarray) -> None:
         """Start new episodes in the copies `idx`: targets, arm at rest on the first target, holding activations,
@@ -258,10 +98,7 @@ class VecEnv(Lockstep):
         if self.sim.carry_warmstart:
             self.sim.warmstart[idx] = 0.0  # as mj_resetData
         self.act[idx] = statics.holding_activation(self.law, start) if self.task.init == "hold" else 0.0
-        self._randomize_reset(idx)
-        if self.physiology:
-            self.excitation[idx] = self.act[idx]
-            self.fatigue_state[idx] = physiology.fresh_fatigue(self.act[idx])
+        self._physiology_reset(idx)
         self.frames[idx] = 0
         self._sense_reset(idx)
         self._return[idx] = 0.0
@@ -303,16 +140,7 @@ class VecEnv(Lockstep):
         (rsl-rl's: time_outs, and the log of ended episodes); the observations after it: `observation_array()`."""
         a = actions.detach().cpu().numpy() if torch.is_tensor(actions) else np.asarray(actions)
         applied, sent = protocol.to_delta(a, self.n, self.discrete, batch=self.num_envs)  # raises before any change
-        if self.physiology:  # the activations of each physics step (shoulder_bench.physiology)
-            t = self.task
-            command = np.clip((self.excitation if t.activation_dynamics else self.act) + applied, 0.0, 1.0)
-            acting, self.act, state = physiology.frame_plan(command, self.act, self.fatigue_state,
-                                                            self.sim.steps_per_frame, self.sim.h,
-                                                            t.activation_dynamics, t.fatigue)
-            self.excitation = command
-            self.fatigue_state = self.fatigue_state if state is None else state
-        else:
-            self.act = acting = np.clip(self.act + applied, 0.0, 1.0)
+        acting = self._frame_activations(applied)  # per physics step with the physiology options
         self.qpos, self.qvel, bad = self.sim.frame_state(self.qpos, self.qvel, acting)
         q = self.q
         self.frames += 1
@@ -354,7 +182,6 @@ class VecEnv(Lockstep):
 
     # --- checkpoints --------------------------------------------------------------------------------------------------
     _STATE = ("targets", "target_vel", "frames", "qpos", "qvel", "act", "_return", "_abs_err")
-    _PHYSIOLOGY = ("excitation", "fatigue_state")  # likewise
 
     def state_dict(self) -> dict:
         """Everything that decides the copies' future: physics state (with the constraint solver's warmstart),
@@ -364,31 +191,23 @@ class VecEnv(Lockstep):
         warm = None if self.sim.warmstart is None else self.sim.warmstart.copy()
         return {"num_envs": self.num_envs, "name": self.name, "rngs": [r.bit_generator.state for r in self.rngs],
                 "episode_length_buf": self.episode_length_buf.clone(), "finished": list(self._finished),
-                "warmstart": warm, **self._sensing_state(),
-                "physiology": self._physiology_key(), **self._randomize_state(),
-                **{key: getattr(self, key).copy() for key in self._STATE + self._PHYSIOLOGY}}
-
-    def _physiology_key(self) -> str:
-        t = self.task
-        return repr((t.activation_dynamics, t.fatigue, t.randomize))
+                "warmstart": warm, **self._sensing_state(), **self._physiology_state(),
+                **{key: getattr(self, key).copy() for key in self._STATE}}
 
     def load_state_dict(self, state: dict) -> None:
         if (state["name"], state["num_envs"]) != (self.name, self.num_envs):
             raise ValueError(f"env state of {state['num_envs']} copies of {state['name']} cannot be restored into "
                              f"{self.num_envs} copies of {self.name}")
-        saved = state.get("physiology", repr((False, None, None)))
-        if saved != self._physiology_key():
-            raise ValueError(f"env state saved with physiology (activation_dynamics, fatigue, randomize) = {saved} "
-                             f"cannot be restored into an env with {self._physiology_key()}")
+        self._check_physiology(state)
         missing = [k for k in self._STATE if k not in state]
         if missing:
             raise ValueError(f"env state lacks {missing}: it was saved by another version of the model")
         self._load_sensing(state)
         for rng, saved_rng in zip(self.rngs, state["rngs"]):
             rng.bit_generator.state = saved_rng
-        for key in self._STATE + tuple(k for k in self._PHYSIOLOGY if k in state):
+        for key in self._STATE:
             setattr(self, key, np.array(state[key], copy=True))
-        self._load_randomize(state)
+        self._load_physiology(state)
         if self.sim.warmstart is not None and state.get("warmstart") is not None:
             self.sim.warmstart[:] = state["warmstart"]
         self.episode_length_buf = state["episode_length_buf"].clone().to(self.device)

@@ -18,8 +18,8 @@ from shoulder_bench.arm import harden_couplings
 from shoulder_bench.simulator import BatchSimulator
 from shoulder_bench.tasks import TASKS_3DOF, check_name, sensing
 from shoulder_bench.tasks import options as options_check
+from shoulder_bench.tasks.lockstep import Lockstep
 from shoulder_bench.tasks.track3d import Track3D, actuator_groups, law_for, valid_range_deg
-from shoulder_bench.tasks.vec_env import Lockstep
 
 
 class VecEnv3(Lockstep):
@@ -60,7 +60,7 @@ class VecEnv3(Lockstep):
         self.valid_lo, self.valid_hi = valid_range_deg(m)
         self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
         self._setup_sensing(seed)
-        self._setup_randomize(seed, actuator_groups(m, self.muscles))
+        self._setup_physiology(seed, actuator_groups(m, self.muscles))
         split_frames = int(round(trajectory3.SPLITS[self.task.split]["duration_s"] / protocol.FRAME_S))
         self.episode_frames = np.array([split_frames if t is None else t.frames for t in self.fixed])
         self.max_episode_length = int(self.episode_frames.max())
@@ -95,7 +95,7 @@ class VecEnv3(Lockstep):
         self._return[idx] = 0.0
         self.episode_length_buf[torch.as_tensor(idx)] = 0
         self._sense_reset(idx)
-        self._randomize_reset(idx)
+        self._physiology_reset(idx)
 
     def _sense(self) -> np.ndarray:
         """(N, 6 + n): the true angles (deg), velocities (deg/s) and activations now."""
@@ -121,8 +121,8 @@ class VecEnv3(Lockstep):
         `Lockstep.step`."""
         a = actions.detach().cpu().numpy() if isinstance(actions, torch.Tensor) else np.asarray(actions)
         applied, sent = protocol.to_delta(a, self.n, self.discrete, batch=self.num_envs)
-        self.act = np.clip(self.act + applied, 0.0, 1.0)
-        self.qpos, self.qvel, bad = self.sim.frame_state(self.qpos, self.qvel, self.act)  # bad: MuJoCo reset it
+        acting = self._frame_activations(applied)  # per physics step with the physiology options
+        self.qpos, self.qvel, bad = self.sim.frame_state(self.qpos, self.qvel, acting)  # bad: MuJoCo reset it
         angles = np.degrees(self.qpos[:, self.qadr])
         crashed = bad | np.any((angles < self.valid_lo) | (angles > self.valid_hi), axis=1)
         self.qpos[crashed] = np.nan_to_num(self.qpos[crashed])
@@ -156,23 +156,20 @@ class VecEnv3(Lockstep):
         """Everything that decides the next frames: the copies' state and targets, every RNG, the delay buffer and
         the noise of the observation now, so a restored env continues exactly as this one would."""
         return {"num_envs": self.num_envs, "name": self.name, "rngs": [r.bit_generator.state for r in self.rngs],
-                "randomize": repr(self.task.randomize), **self._sensing_state(), **self._randomize_state(),
+                **self._sensing_state(), **self._physiology_state(),
                 **{k: getattr(self, k).copy() for k in self._STATE}}
 
     def load_state_dict(self, state: dict) -> None:
         if state["num_envs"] != self.num_envs or state["name"] != self.name:
             raise ValueError(f"checkpoint env state is for {state['num_envs']} copies of {state['name']}, not "
                              f"{self.num_envs} of {self.name}")
-        saved = state.get("randomize", repr(None))
-        if saved != repr(self.task.randomize):
-            raise ValueError(f"env state saved with randomize={saved} cannot be restored into an env with "
-                             f"randomize={self.task.randomize!r}")
+        self._check_physiology(state)
         self._load_sensing(state)
         for r, s in zip(self.rngs, state["rngs"]):
             r.bit_generator.state = s
         for k in self._STATE:
             setattr(self, k, np.array(state[k]))
-        self._load_randomize(state)
+        self._load_physiology(state)
         # a copy: torch.as_tensor would share the frames array, and both count up each frame (every episode then
         # ran at twice the pace after a restore: a resumed 3-DOF run ended its episodes at half their length)
         self.episode_length_buf = torch.tensor(self.frames, dtype=torch.long, device=self.device)

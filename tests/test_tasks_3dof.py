@@ -93,9 +93,9 @@ def test_orientation_error_is_the_rotation_angle():
 
 def test_bad_options_and_actions_are_clear_errors():
     with pytest.raises(ValueError, match="not offered on the 3-DOF tasks"):
-        shoulder_bench.load("track_3dof", activation_dynamics=True)
+        shoulder_bench.load("track_3dof", joint_damping=1.0)
     with pytest.raises(ValueError, match="not offered on the 3-DOF tasks"):
-        check_options("track_3dof", fatigue=True)
+        check_options("track_3dof", tracking_only=True)
     with pytest.raises(ValueError, match="workspace"):
         shoulder_bench.load("track_3dof", workspace="moon")
     with pytest.raises(ValueError, match="FEM tables only"):

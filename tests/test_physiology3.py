@@ -1,6 +1,7 @@
-"""`randomize` on the 3-DOF tasks (issue 12 §4: the physiology options there): each episode's muscle strengths (the
-actuators' gear; on the band's line of action the passive callback reads it too), the humerus mass and a load at
-the elbow, the same in the single env and the batched one, restored exactly from a saved state."""
+"""The physiology options on the 3-DOF tasks (issue 12 §4): `randomize` (each episode's muscle strengths through the
+actuators' gear, on the band's line of action too; the humerus mass; a load at the elbow), `activation_dynamics` and
+`fatigue` (the 1-DOF tasks' per-step activation path), the same in the single env and the batched one, restored
+exactly from a saved state."""
 import copy
 
 import mujoco
@@ -122,7 +123,7 @@ def test_a_restored_randomised_batched_env_continues_exactly():
     np.testing.assert_array_equal(twin.observation_array(), venv.observation_array())
     np.testing.assert_array_equal(twin.draw_strength, venv.draw_strength)
     plain = shoulder_bench.make_vec("track_3dof", 3, seed=2)
-    with pytest.raises(ValueError, match="saved with randomize="):
+    with pytest.raises(ValueError, match=r"saved with physiology \(activation_dynamics, fatigue, randomize\)"):
         plain.load_state_dict(state)
     for v in (venv, twin, plain):
         v.close()
@@ -140,8 +141,76 @@ def test_gymnasium_reports_the_3dof_episodes_draw():
 
     env = gym.make("ShoulderBench/track_3dof-v0", randomize="strength=0.2,load=1")
     _, info = env.reset(seed=3)
+    assert "excitations" not in info and "fatigue" not in info
     draw = info["randomization"]
     assert draw["strength"].shape == (13,) and draw["load_kg"] == 1.0 and draw["mass_scale"] == 1.0
     _, _, _, _, info = env.step(env.action_space.sample())
     np.testing.assert_array_equal(info["randomization"]["strength"], draw["strength"])
     env.close()
+    env = gym.make("ShoulderBench/track_3dof-v0", activation_dynamics=True, fatigue=True)
+    _, info = env.reset(seed=3)
+    _, _, _, _, info = env.step(np.full(13, 0.01, dtype=np.float32))
+    assert info["excitations"].shape == (13,) and info["fatigue"].shape == (13, 3)
+    assert np.all(info["activations"] < info["excitations"])  # the activation trails its excitation
+    env.close()
+
+
+PHYSIOLOGY = {"activation_dynamics": True, "fatigue": True}
+
+
+def test_a_batched_copy_follows_the_single_env_with_activation_dynamics_and_fatigue():
+    env = shoulder_bench.load("track_3dof", seed=1, **PHYSIOLOGY)
+    venv = shoulder_bench.make_vec("track_3dof", 2, seed=0, **PHYSIOLOGY)
+    env.reset()
+    rng = np.random.default_rng(4)
+    for _ in range(12):
+        a = rng.uniform(-0.01, 0.01, (2, 13))
+        ts = env.step(a[1])
+        venv.advance(a)
+        obs = venv.observation_array()[1]
+        np.testing.assert_allclose(ts.observation["angle"], obs[:3], atol=1e-6)
+        np.testing.assert_allclose(ts.observation["activations"], obs[12:], atol=1e-12)
+    np.testing.assert_allclose(env.task.fatigue_state, venv.fatigue_state[1], atol=1e-12)
+    np.testing.assert_allclose(env.task.excitation, venv.excitation[1], atol=1e-12)
+    venv.close()
+
+
+def test_the_activation_lags_its_excitation_and_fatigue_builds_up():
+    """From rest at zero activation, +0.01 per frame: with the dynamics the activation trails the command (Thelen's
+    time constants), without it equals it; held at full command, fatigue moves muscle into the fatigued pool."""
+    lagging = shoulder_bench.load("track_3dof", seed=0, init="zero", activation_dynamics=True)
+    plain = shoulder_bench.load("track_3dof", seed=0, init="zero")
+    for env in (lagging, plain):
+        env.reset()
+        for _ in range(3):
+            ts = env.step(np.full(13, 0.01))
+        env.last = ts.observation["activations"]
+    np.testing.assert_allclose(plain.last, 0.03, atol=1e-12)
+    assert np.all(lagging.last > 0.0) and np.all(lagging.last < 0.03)
+    np.testing.assert_allclose(lagging.task.excitation, 0.03, atol=1e-12)
+    tired = shoulder_bench.load("track_3dof", seed=0, fatigue=True)
+    tired.reset()
+    for _ in range(30):
+        tired.step(np.full(13, 0.01))
+    assert tired.task.fatigue_state[:, 2].max() > 0.01  # M_F: the fatigued share
+
+
+def test_a_restored_batched_env_with_every_physiology_option_continues_exactly():
+    opts = PHYSIOLOGY | {"randomize": True}
+    venv = shoulder_bench.make_vec("track_3dof", 2, seed=5, **opts)
+    rng = np.random.default_rng(1)
+    for _ in range(4):
+        venv.advance(rng.uniform(-0.01, 0.01, (2, 13)))
+    state = copy.deepcopy(venv.state_dict())
+    twin = shoulder_bench.make_vec("track_3dof", 2, seed=8, **opts)
+    twin.load_state_dict(state)
+    for a in rng.uniform(-0.01, 0.01, (105, 2, 13)):
+        venv.advance(a)
+        twin.advance(a)
+    np.testing.assert_array_equal(twin.observation_array(), venv.observation_array())
+    np.testing.assert_array_equal(twin.fatigue_state, venv.fatigue_state)
+    other = shoulder_bench.make_vec("track_3dof", 2, seed=5, randomize=True)
+    with pytest.raises(ValueError, match="saved with physiology"):
+        other.load_state_dict(state)
+    for v in (venv, twin, other):
+        v.close()
