@@ -5,9 +5,9 @@ setting) over its seeds, and the reference controller, each evaluated now on its
 Columns: the success rate, the humerus orientation error (MAE with a 95 % bootstrap interval over seeds, RMSE), the
 error of each coordinate (plane of elevation, elevation, axial rotation; MAE over the frames that did not crash),
 effort, saw-tooth and mean |delta a| (`eval.measures`, as the 1-DOF board's; success on the orientation error),
-crashes, frames and the run's wall time (its periodic test evaluations included). The main board
-(`eval.leaderboard`) keeps the 1-DOF tasks; its combing and suite columns are not defined here (the suites are 1-DOF
-targets; combing is a 3-DOF ADL profile, `trajectory3.ADL`, evaluated by name). Co-contraction: the share of the
+crashes, frames and the run's wall time (its periodic test evaluations included), and the MAE on each of the board's
+suites that the 3-DOF tasks take (`suites_of`: fast, adl, robust in three dimensions, `eval.suites`). The main board
+(`eval.leaderboard`) keeps the 1-DOF tasks. Co-contraction: the share of the
 summed activation in muscles whose torque vector has a negative dot product with the net one (`TorqueLaw3`).
 """
 from __future__ import annotations
@@ -31,13 +31,15 @@ MEASURES = ("success", "effort", "sawtooth_per_s", "mean_abs_delta", "co_contrac
 class TorqueLaw3:
     """The full shoulder's isometric muscle torques for `measures.co_contraction`: torque(angles rad (F, 3), velocity,
     activation (F, muscles)) -> (F, muscles, 3) N m about plane, elevation, rotation (the tasks' FEM tables through
-    the tendon moment arms, `full_arm.Pose.tendon_geometry`; a muscle's the sum over its tendons)."""
+    the tendon moment arms, `full_arm.Pose.tendon_geometry`; a muscle's the sum over its tendons); the law of a task
+    with `line_of_action` and a shoulder condition (`tasks.track3d.law_for`)."""
 
-    def __init__(self, line_of_action: str = "mjcf"):
-        from shoulder_bench import full_arm
-        from shoulder_bench.tendon_law import TendonLaw
+    def __init__(self, line_of_action: str = "mjcf", **condition):
+        from shoulder_bench import conditions, full_arm
+        from shoulder_bench.tasks.track3d import law_for
 
-        self.law = TendonLaw.load("fem", groups=full_arm.ACTUATORS, line_of_action=line_of_action)
+        self.law = law_for("fem", line_of_action, conditions.factors(muscles=full_arm.MUSCLES,
+                                                                     **{"condition": None} | condition))
         self.pose = full_arm.Pose()
         self.muscles = self.law.muscles
 
@@ -62,7 +64,37 @@ def score_of(policy, task: str, test: list, options: dict | None = None, law=Non
                     "sawtooth_per_s": measures.sawtooth_rate(trace["activation"]),
                     "mean_abs_delta": measures.mean_abs_delta(trace["activation"]),
                     "co_contraction": measures.co_contraction(trace["angle_deg"], trace["activation"],
-                                                              law or TorqueLaw3(lines_of(options)))}
+                                                              law or TorqueLaw3(**law_options(options)))}
+
+
+def suites_of(requested) -> list[str]:
+    """The named suites of `requested` (the board's --suite) that 3-DOF tasks take beyond their test set, in order:
+    fast, adl and robust (`eval.suites.SUITES3`; the scapular-plane task takes them as the 1-DOF ones, `SCAPULAR`);
+    paper, wide and folders of CSV files are the 1-DOF board's."""
+    from shoulder_bench.eval.suites import SUITES3
+
+    return [s for s in dict.fromkeys(requested or ()) if s in SUITES3]
+
+
+def suite_scores(policy, task: str, specs: list[str], options: dict | None, sets: dict) -> dict:
+    """{suite: MAE} of `policy` on each suite of `specs` (`eval.suites.load_suite` for `task`, its task options on
+    top of `options`); `sets` caches the loaded suites per (suite, task)."""
+    from shoulder_bench.eval.evaluate import evaluate
+    from shoulder_bench.eval.suites import load_suite, options_for
+
+    out = {}
+    for spec in specs:
+        if (spec, task) not in sets:
+            sets[(spec, task)] = load_suite(spec, task)
+        out[spec] = evaluate(policy, task, sets[(spec, task)], options=options_for(spec, options))["mae_deg"]
+    return out
+
+
+def law_options(options: dict | None) -> dict:
+    """The task options of a 3-DOF run that decide its muscles' torques: line_of_action and the condition."""
+    from shoulder_bench.eval.evaluate import CONDITION_OPTIONS
+
+    return {k: v for k, v in (options or {}).items() if k in ("line_of_action",) + CONDITION_OPTIONS}
 
 
 def lines_of(options: dict | None) -> str:
@@ -110,11 +142,12 @@ def _variant(setting: str, settings: list[str]) -> str:
 
 def _row(task: str, algo: str, scores: list[dict], metrics: list[dict]) -> dict:
     mae = [s["mae_deg"] for s in scores]
+    suites = {k: float(np.mean([s["suites"][k] for s in scores])) for k in scores[0].get("suites", {})}
     lo, hi = stats.bootstrap_ci(mae) if len(mae) > 1 else (float("nan"), float("nan"))
     coord = {k: float(np.mean([s["coordinate_mae_deg"][k] for s in scores])) for k in ("plane", "elevation",
                                                                                          "rotation")}
     return {"task": task, "algorithm": algo, "seeds": len(scores), "mae": float(np.mean(mae)), "ci": (lo, hi),
-            "rmse": float(np.mean([s["rmse_deg"] for s in scores])), **coord,
+            "rmse": float(np.mean([s["rmse_deg"] for s in scores])), **coord, "suites": suites,
             **{k: float(np.mean([s[k] for s in scores])) for k in MEASURES},
             "crashes": int(sum(s["crashes"] for s in scores)),
             "frames": [m.get("frames") for m in metrics if m], "wall_s": [m.get("wall_s") for m in metrics if m]}
@@ -130,14 +163,17 @@ def shipped() -> list[tuple[Path, object, dict]]:
 
 
 def collect(runs: Path | None, progress: bool = False, test: list | None = None,
-            pretrained: bool = False) -> list[dict]:
+            pretrained: bool = False, suites=()) -> list[dict]:
     """Rows of the 3-DOF runs under `runs` (and, with `pretrained` or without runs, of the shipped 3-DOF agents,
     as the main board takes the shipped agents) and of the reference controller on each continuous 3-DOF task a
     row has (empty without any); `test`: the trajectories (default each task's fixed test set; the tests pass
-    fewer)."""
+    fewer); `suites`: the board's --suite, of which those 3-DOF tasks take (`suites_of`) add their MAE, each row
+    under the suite's task options on top of its own (a run whose options conflict with a suite's is refused
+    before any evaluation)."""
     from tqdm import tqdm
 
     from shoulder_bench.eval.reference3 import ReferenceController3
+    from shoulder_bench.eval.suites import options_for
     from shoulder_bench.tasks import TASKS_3DOF, fixed_test_set
     from shoulder_bench.train.policy import load_policy
 
@@ -145,7 +181,14 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
     agents = shipped() if pretrained or runs is None else []
     if not folders and not agents:
         return []
+    specs = suites_of(suites)
+    configs = {f: json.loads((f / "config.json").read_text()) for f in folders}
+    for who, options in [(f"run {f}", c.get("options")) for f, c in configs.items()] + [
+            (f"agent {p.stem}", m.get("options")) for p, _, m in agents]:
+        for spec in specs:  # a suite's fixed options against a row's own: every conflict before any evaluation
+            options_for(spec, options, who=who)
     sets: dict[str, list] = {}
+    suite_sets: dict[tuple, list] = {}
 
     def test_of(task: str) -> list:
         if test is not None:
@@ -154,21 +197,22 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
             sets[task] = fixed_test_set(task)
         return sets[task]
     groups: dict[tuple[str, str], tuple[list, list]] = defaultdict(lambda: ([], []))
-    torques: dict[str, TorqueLaw3] = {}  # per line of action
+    torques: dict[str, TorqueLaw3] = {}  # per line of action and condition
     lines: dict[str, set] = defaultdict(set)  # task -> the lines of action its rows simulate
 
     def torques_for(task: str, options: dict | None) -> TorqueLaw3:
-        key = lines_of(options)
-        lines[task].add(key)
+        lines[task].add(lines_of(options))
+        key = json.dumps(law_options(options), sort_keys=True)
         if key not in torques:
-            torques[key] = TorqueLaw3(key)
+            torques[key] = TorqueLaw3(**law_options(options))
         return torques[key]
     for folder in tqdm(folders, desc="evaluating 3-DOF runs", disable=not progress):
-        cfg = json.loads((folder / "config.json").read_text())
+        cfg = configs[folder]
         policy, _ = load_policy(str(folder / "policy.pt"))
         options = cfg.get("options") or None
         score = score_of(policy, cfg["task"], test_of(cfg["task"]), options=options,
                          law=torques_for(cfg["task"], options))
+        score["suites"] = suite_scores(policy, cfg["task"], specs, options, suite_sets)
         metrics = json.loads((folder / "metrics.json").read_text()) if (folder / "metrics.json").exists() else {}
         g = groups[(cfg["task"], cfg["algo"].upper(), setting_key(cfg))]
         g[0].append(score)
@@ -179,6 +223,7 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
         options = meta.get("options") or None
         score = score_of(policy, meta["task"], test_of(meta["task"]), options=options,
                          law=torques_for(meta["task"], options))
+        score["suites"] = suite_scores(policy, meta["task"], specs, options, suite_sets)
         g = groups[(meta["task"], f"{str(meta.get('algo', '')).upper()} (shipped agent {path.stem})", "")]
         g[0].append(score)
         g[1].append(metrics)
@@ -187,8 +232,9 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
     for task in sorted({t for t, _, _ in groups if not TASKS_3DOF[t][1]}):  # the continuous tasks' reference,
         for key in sorted(lines[task], reverse=True):  # on each line of action its rows simulate (mjcf first)
             options = None if key == "mjcf" else {"line_of_action": key}
-            score = score_of(ReferenceController3(task, line_of_action=key), task, test_of(task), options=options,
-                             law=torques_for(task, options))
+            controller = ReferenceController3(task, line_of_action=key)
+            score = score_of(controller, task, test_of(task), options=options, law=torques_for(task, options))
+            score["suites"] = suite_scores(controller, task, specs, options, suite_sets)
             rows.append(_row(task, "reference controller" + ("" if options is None else f" (line_of_action={key})"),
                              [score], []))
     return rows
@@ -199,14 +245,16 @@ def _cells(r: dict) -> list[str]:
     frames = ", ".join(f"{f:,}" for f in r["frames"] if f) or "-"
     wall = ", ".join(f"{w:.0f}" for w in r["wall_s"] if w) or "-"
     return [r["task"], r["algorithm"], str(r["seeds"]), f"{r['success']:.0%}", f"{r['mae']:.2f}{ci}",
-            f"{r['rmse']:.2f}", f"{r['plane']:.2f}", f"{r['elevation']:.2f}", f"{r['rotation']:.2f}",
+            f"{r['rmse']:.2f}", *(f"{v:.2f}" for v in r["suites"].values()),
+            f"{r['plane']:.2f}", f"{r['elevation']:.2f}", f"{r['rotation']:.2f}",
             f"{r['effort']:.3f}", f"{r['sawtooth_per_s']:.2f}", f"{r['mean_abs_delta']:.4f}",
             f"{r['co_contraction']:.0%}", str(r["crashes"]),
             frames, wall]
 
 
 NOTE = ("3-DOF rows: evaluated now on their task's fixed 100-trajectory test set (eval/data/test_set_3dof.csv; "
-        "elevate_scapular_plane_12m: the 1-DOF test set's elevations in the scapular plane at rotation 0); the "
+        "elevate_scapular_plane_12m: the 1-DOF test set's elevations in the scapular plane at rotation 0) under "
+        "the row's own task options (those its label names: a row trained with delay_frames=1 is scored with it); the "
         "orientation error is the angle between the achieved and the target humerus orientation; each coordinate's "
         "MAE excludes crashed frames; the interval is the 95 % bootstrap over seeds (none for one seed). Success: the "
         "share of test trajectories whose orientation error stays under 2 deg on at least 90 % of their frames "
@@ -215,11 +263,56 @@ NOTE = ("3-DOF rows: evaluated now on their task's fixed 100-trajectory test set
         "against the net muscle torque (negative dot product); with several seeds, means over seeds.")
 
 
+SUITE_NOTE = (" Suite columns (the board's --suite): the row's orientation MAE on that suite (mean over seeds), on "
+              "track_3dof(_discrete) the 3-DOF suite of that name (fast: 2-3 s segments in all three coordinates "
+              "within the test ranges; adl: the four synthetic ADL profiles, which leave the test ranges), on "
+              "elevate_scapular_plane_12m the 1-DOF one in the scapular plane (eval/suites.py).")
+
+
+def titles(rows: list[dict]) -> list[str]:
+    """The column titles: COLUMNS with one MAE column per suite after the test RMSE."""
+    named = [f"{s} MAE (deg)" for s in rows[0]["suites"]]
+    return [*COLUMNS[:6], *named, *COLUMNS[6:]]
+
+
+def notes(rows: list[dict]) -> str:
+    from shoulder_bench.eval.suites import note
+
+    specs = list(rows[0]["suites"])
+    return NOTE + (SUITE_NOTE + note(specs, three=True) if specs else "")
+
+
 def markdown(rows: list[dict]) -> str:
     if not rows:
         return ""
-    return ("\n## The full shoulder (3-DOF tasks)\n\n| " + " | ".join(COLUMNS) + " |\n|" + "---|" * len(COLUMNS)
-            + "\n" + "".join("| " + " | ".join(_cells(r)) + " |\n" for r in rows) + "\n" + NOTE + "\n")
+    head = titles(rows)
+    return ("\n## The full shoulder (3-DOF tasks)\n\n| " + " | ".join(head) + " |\n|" + "---|" * len(head)
+            + "\n" + "".join("| " + " | ".join(_cells(r)) + " |\n" for r in rows) + "\n" + notes(rows) + "\n")
+
+
+def suite_figure(rows: list[dict]) -> str:
+    """Each row's orientation MAE on its test set and on each suite, grouped bars on a log axis, as one base64 PNG:
+    where a ranking on the test set holds across the suites and where it turns."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from shoulder_bench.eval.leaderboard import _png
+
+    sets = ["test", *rows[0]["suites"]]
+    width = 0.8 / len(sets)
+    fig, ax = plt.subplots(figsize=(10, 0.5 * len(rows) * len(sets) * 0.45 + 1.6))
+    for k, name in enumerate(sets):
+        values = [r["mae"] if name == "test" else r["suites"][name] for r in rows]
+        ax.barh(np.arange(len(rows)) + (k - (len(sets) - 1) / 2) * width, values, height=width, label=name)
+    ax.set_yticks(range(len(rows)), [f"{r['task']} · {r['algorithm']}" for r in rows], fontsize=7)
+    ax.set(xscale="log", xlabel="orientation MAE (deg, log scale)")
+    ax.invert_yaxis()
+    ax.grid(alpha=0.3, axis="x", which="both")
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    return _png(fig)
 
 
 def html(rows: list[dict]) -> str:
@@ -228,5 +321,8 @@ def html(rows: list[dict]) -> str:
     if not rows:
         return ""
     body = "".join("<tr>" + "".join(f"<td>{h.escape(c)}</td>" for c in _cells(r)) + "</tr>" for r in rows)
-    return (f"<h2>The full shoulder (3-DOF tasks)</h2><table><tr>{''.join(f'<th>{h.escape(c)}</th>' for c in COLUMNS)}"
-            f"</tr>{body}</table><p>{h.escape(NOTE)}</p>")
+    head = "".join(f"<th>{h.escape(c)}</th>" for c in titles(rows))
+    figure = (f"<p><img alt='orientation MAE of each 3-DOF row on its test set and each suite' "
+              f"src='data:image/png;base64,{suite_figure(rows)}'></p>" if rows[0]["suites"] else "")
+    return (f"<h2>The full shoulder (3-DOF tasks)</h2><table><tr>{head}</tr>{body}</table>"
+            f"<p>{h.escape(notes(rows))}</p>{figure}")

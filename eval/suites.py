@@ -11,6 +11,8 @@
          OPTIONS["robust"]: delay_frames=1, obs_noise_deg=0.5 and randomize with muscle strength x U[0.8, 1.2] per
          muscle, a hand load of exactly 1 kg at the elbow and the humerus mass not randomised
 
+The 3-DOF tasks take fast, adl and robust in three dimensions (`SUITES3`, `load_suite(spec, task)`; below).
+
 Training stays on the paper's distribution, so every suite but `paper` measures generalisation. Any other value of
 `--suite` is a folder of CSV files (every *.csv, sorted by name): a hidden suite a user supplies.
 
@@ -63,13 +65,51 @@ SUITES = tuple(FILES)
 OPTIONS = {"robust": {"delay_frames": 1, "obs_noise_deg": 0.5,
                       "randomize": {"strength": 0.2, "mass": 0.0, "load": (1.0, 1.0)}}}
 
+# the 3-DOF tasks' suites (issue 12 §4), the same names in three dimensions: on track_3dof and track_3dof_discrete
+#   fast   100 x 20 s, 2-3 s quintic segments (FAST_SEGMENT_FRAMES) in all three coordinates at once, end points
+#          uniform in the 3-DOF test ranges (trajectory3.SPLITS["test"]); seed 20213
+#   adl    the four synthetic activities of daily living (trajectory3.ADL; made up, not measured)
+#   robust the 3-DOF test set (test_set_3dof.csv) under OPTIONS["robust"], the 1-DOF robust's conditions (the 13
+#          muscles' strengths drawn, a 1 kg load at the elbow, the delay and the noise)
+# elevate_scapular_plane_12m tracks 1-DOF elevations: its suites are the 1-DOF ones in SCAPULAR (wide's 5-150 deg leave
+# the pose space's 140), in the scapular plane at rotation 0 (track3d.scapular)
+FAST3_SEED = 20213  # trajectory3.TEST_SET_SEED + 1
+FILES3 = {"fast": "suite_fast_3dof.csv", "adl": "suite_adl_3dof.csv", "robust": "test_set_3dof.csv"}
+SHA256_3 = {"fast": "6e11cd451b0059edbd638e5c3ef2fd3f629035a44de0f36a16bc78cfc47da9c5",
+            "adl": "cba2bab1b03f14be166408054412e22da9646d12e2e883009411fafd2f4696d9",
+            "robust": "1c9fd160a248fa3f3270a3bdf62059450ed2ae04553b1a3894425220934b2673"}
+SUITES3 = tuple(FILES3)
+SCAPULAR = ("paper", "fast", "adl", "robust")
+
+
+def kind(task: str | None) -> str:
+    """Which suites `task` takes: "1dof" (the 1-DOF tasks; also no task), "3dof" (SUITES3) or "scapular" (the
+    1-DOF ones in the scapular plane)."""
+    from shoulder_bench.tasks import TASKS_3DOF, is_3dof
+
+    if task is None or not is_3dof(task):
+        return "1dof"
+    return "scapular" if TASKS_3DOF[task][2].get("workspace") == "scapular_plane" else "3dof"
+
+
+def names(task: str | None = None) -> tuple[str, ...]:
+    """The named suites `task` takes."""
+    return {"1dof": SUITES, "3dof": SUITES3, "scapular": SCAPULAR}[kind(task)]
+
+
+def segment_angles(points, seg_frames) -> np.ndarray:
+    """Rest-to-rest quintic segments through `points` (deg; (K + 1,) or, per coordinate, (K + 1, 3)), segment k
+    lasting seg_frames[k] frames: the angles per frame."""
+    points = np.asarray(points, dtype=float)
+    pos = [quintic(np.arange(n) * FRAME_S, points[k], points[k + 1], n * FRAME_S)[0] if points.ndim == 1 else
+           np.stack([quintic(np.arange(n) * FRAME_S, points[k, c], points[k + 1, c], n * FRAME_S)[0]
+                     for c in range(points.shape[1])], axis=1) for k, n in enumerate(seg_frames)]
+    return np.concatenate(pos + [points[-1:]])
+
 
 def segmented(points, seg_frames, name: str) -> Trajectory:
-    """Rest-to-rest quintic segments through `points` (deg), segment k lasting seg_frames[k] frames."""
-    pos = []
-    for k, n in enumerate(seg_frames):
-        pos.append(quintic(np.arange(n) * FRAME_S, points[k], points[k + 1], n * FRAME_S)[0])
-    return from_array(np.concatenate(pos + [[points[-1]]]), name=name)
+    """A 1-DOF trajectory of `segment_angles`."""
+    return from_array(segment_angles(points, seg_frames), name=name)
 
 
 def fast_segments(rng: np.random.Generator, total: int = DURATION_FRAMES) -> list[int]:
@@ -110,6 +150,27 @@ def generate(name: str) -> list[Trajectory]:
     raise ValueError(f"unknown suite {name!r}; choose one of {', '.join(SUITES)} or give a folder of CSV files")
 
 
+def generate3(name: str) -> list:
+    """The 3-DOF suite `name` computed from its definition (`trajectory3.Trajectory3`s)."""
+    from shoulder_bench import trajectory3
+
+    if name == "fast":
+        rng = np.random.default_rng(FAST3_SEED)
+        lo, hi = np.array(trajectory3.SPLITS["test"]["range_deg"]).T
+        out = []
+        for _ in range(SUITE_SIZE):
+            seg = fast_segments(rng)
+            out.append(trajectory3.from_array(segment_angles(rng.uniform(lo, hi, size=(len(seg) + 1, 3)), seg),
+                                              name="fast"))
+        return out
+    if name == "adl":
+        return [profile() for profile in trajectory3.ADL.values()]
+    if name == "robust":
+        return trajectory3.make_test_set()
+    raise ValueError(f"unknown 3-DOF suite {name!r}; choose one of {', '.join(SUITES3)} or give a folder of 3-DOF "
+                     f"CSV files")
+
+
 def csv_text(trajectories: list[Trajectory]) -> bytes:
     """The bytes `write_csv` writes for these trajectories."""
     buf = io.StringIO()
@@ -126,32 +187,51 @@ def data_dir() -> Path:
     return Path(str(files("shoulder_bench.eval") / "data"))
 
 
-def suite_path(name: str) -> Path:
-    if name not in FILES:
-        generate(name)  # the error listing the suites
-    return data_dir() / FILES[name]
+def suite_path(name: str, three: bool = False) -> Path:
+    """A named suite's file (`three`: the 3-DOF tasks' suite of that name)."""
+    files = FILES3 if three else FILES
+    if name not in files:
+        (generate3 if three else generate)(name)  # the error listing the suites
+    return data_dir() / files[name]
 
 
-def load_suite(spec: str) -> list[Trajectory]:
-    """A named suite, checked against its recorded SHA-256, or every *.csv of a folder (a hidden suite)."""
-    if spec not in FILES:
+def load_suite(spec: str, task: str | None = None) -> list:
+    """A named suite, checked against its recorded SHA-256, or every *.csv of a folder (a hidden suite), for `task`
+    (default a 1-DOF one): 1-DOF `Trajectory`s, or on a 3-DOF task `trajectory3.Trajectory3`s (`kind`)."""
+    from shoulder_bench import trajectory3
+
+    where = kind(task)
+    if where == "scapular":
+        from shoulder_bench.tasks.track3d import scapular
+
+        if spec in FILES and spec not in SCAPULAR:
+            raise ValueError(f"--suite {spec}: {task} takes the 1-DOF suites {', '.join(SCAPULAR)} (in the scapular "
+                             f"plane) or a folder of 1-DOF CSV files; {spec}'s elevations leave its pose space")
+        return [scapular(t.angle_deg, name=t.name) for t in load_suite(spec)]
+    three = where == "3dof"
+    if spec not in (FILES3 if three else FILES):
         folder = Path(spec)
         if not folder.is_dir():
-            raise ValueError(f"--suite {spec}: not a suite name ({', '.join(SUITES)}) nor a folder of CSV files")
+            raise ValueError(f"--suite {spec}: not a suite name ({', '.join(names(task))}) nor a folder of "
+                             f"{'3-DOF ' if three else ''}CSV files")
         paths = sorted(folder.glob("*.csv"))
         if not paths:
             raise ValueError(f"--suite {spec}: the folder holds no *.csv files")
-        return [t for p in paths for t in load_csv(p)]
-    path = suite_path(spec)
-    actual = hashlib.sha256(path.read_bytes()).hexdigest()
-    if actual != SHA256[spec]:
-        raise ValueError(f"{path} does not match its recorded checksum ({actual} != {SHA256[spec]}); restore it "
+        return [t for p in paths for t in (trajectory3.load_csv(p) if three else load_csv(p))]
+    path = suite_path(spec, three)
+    actual, recorded = hashlib.sha256(path.read_bytes()).hexdigest(), (SHA256_3 if three else SHA256)[spec]
+    if actual != recorded:
+        raise ValueError(f"{path} does not match its recorded checksum ({actual} != {recorded}); restore it "
                          f"from the repo or regenerate it with `python -m shoulder_bench.eval.suites --write`")
+    if three:
+        return [trajectory3.Trajectory3(t.angle_deg, t.velocity_deg_s, name=f"{spec}:{k}")
+                for k, t in enumerate(trajectory3.load_csv(path))]
     return [Trajectory(t.angle_deg, t.velocity_deg_s, name=f"{spec}:{k}") for k, t in enumerate(load_csv(path))]
 
 
 def suite_options(spec: str) -> dict:
-    """The task options suite `spec` evaluates under (a copy; {} for a suite without any, or a folder)."""
+    """The task options suite `spec` evaluates under, 1-DOF or 3-DOF (a copy; {} for a suite without any, or a
+    folder)."""
     import copy
 
     return copy.deepcopy(OPTIONS.get(spec, {}))
@@ -182,21 +262,30 @@ def options_for(spec: str, options: dict | None, who: str = "the policy") -> dic
     return own | fixed
 
 
-def note(specs) -> str:
-    """A sentence per suite of `specs` that has task options, saying what they are (for a board's notes)."""
-    return "".join(f" Suite {s}: the paper test set under {', '.join(f'{k}={v!r}' for k, v in OPTIONS[s].items())} "
+def note(specs, three: bool = False) -> str:
+    """A sentence per suite of `specs` that has task options, saying what they are (for a board's notes; `three`:
+    the 3-DOF board's)."""
+    test = "each task's test set" if three else "the paper test set"
+    return "".join(f" Suite {s}: {test} under {', '.join(f'{k}={v!r}' for k, v in OPTIONS[s].items())} "
                    f"(eval/suites.py OPTIONS), on top of each row's own options, trajectory k seeded k; the "
                    f"reference controller plans with the nominal arm." for s in dict.fromkeys(specs or ())
                    if s in OPTIONS)
 
 
 def write() -> None:
-    """Write the files of the generated suites (not `paper` nor a suite sharing its file: `python -m
-    shoulder_bench.trajectory` writes that)."""
+    """Write the files of the generated suites, 1-DOF and 3-DOF (not the test sets, nor a suite sharing a test set's
+    file: `python -m shoulder_bench.trajectory` and `python -m shoulder_bench.trajectory3` write those)."""
+    from shoulder_bench import trajectory3
+
     for name in SUITES:
         if FILES[name] != FILES["paper"]:
             write_csv(suite_path(name), generate(name))
         print(f"{name}: {suite_path(name)} sha256 {hashlib.sha256(suite_path(name).read_bytes()).hexdigest()}")
+    for name in SUITES3:  # the 3-DOF ones; robust's file is the 3-DOF test set (`python -m shoulder_bench.trajectory3`)
+        path = suite_path(name, three=True)
+        if path != trajectory3.test_set_path():
+            trajectory3.write_csv(path, generate3(name))
+        print(f"{name} (3-DOF): {path} sha256 {hashlib.sha256(path.read_bytes()).hexdigest()}")
 
 
 if __name__ == "__main__":

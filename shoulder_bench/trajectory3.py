@@ -93,14 +93,18 @@ def load_csv(path: Path | str) -> list[Trajectory3]:
     return [from_array(a, name=name) for name, a in read_frames(Path(path), COLUMNS, check_in_pose_space)]
 
 
+def csv_text(trajectories: list[Trajectory3]) -> bytes:
+    """The bytes `write_csv` writes: `trajectory,time_s,plane_deg,elevation_deg,rotation_deg`, 1e-6 deg."""
+    lines = ["trajectory,time_s," + ",".join(COLUMNS)]
+    for k, tr in enumerate(trajectories):
+        lines += [f"{k},{i * FRAME_S:.1f}," + ",".join(f"{x:.6f}" for x in row) for i, row in enumerate(tr.angle_deg)]
+    return ("\n".join(lines) + "\n").encode()
+
+
 def write_csv(path: Path | str, trajectories: list[Trajectory3]) -> None:
     path = Path(path)
     tmp = path.with_suffix(path.suffix + ".tmp")
-    with tmp.open("w", newline="") as f:
-        f.write("trajectory,time_s," + ",".join(COLUMNS) + "\n")
-        for k, tr in enumerate(trajectories):
-            for i, row in enumerate(tr.angle_deg):
-                f.write(f"{k},{i * FRAME_S:.1f}," + ",".join(f"{x:.6f}" for x in row) + "\n")
+    tmp.write_bytes(csv_text(trajectories))
     tmp.replace(path)
 
 

@@ -195,7 +195,7 @@ def test_robust_evaluation_is_deterministic_and_seeded_per_trajectory():
 
 def _few(monkeypatch, n=2):
     load = suites.load_suite
-    monkeypatch.setattr(suites, "load_suite", lambda spec: load(spec)[:n])  # tiny inputs
+    monkeypatch.setattr(suites, "load_suite", lambda spec, task=None: load(spec, task)[:n])  # tiny inputs
 
 
 def test_eval_suite_robust_records_its_options(monkeypatch, capsys):

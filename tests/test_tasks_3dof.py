@@ -171,8 +171,9 @@ def test_ppo_trains_and_evaluates_on_the_3dof_test_set(tmp_path):
 
     metrics = train("track_3dof", "ppo", frames=1536, seed=0, out=tmp_path / "track_3dof/ppo/0", eval_every=10 ** 9)
     assert metrics["n_trajectories"] == 100 and np.isfinite(metrics["mae_deg"])
-    rows = board3.collect(tmp_path, test=trajectory3.load_test_set()[:2])
+    rows = board3.collect(tmp_path, test=trajectory3.load_test_set()[:2], suites=["paper", "adl"])
     assert [r["algorithm"] for r in rows] == ["PPO", "reference controller"]
+    assert all(list(r["suites"]) == ["adl"] and np.isfinite(r["suites"]["adl"]) for r in rows)
     assert all(np.isfinite(r[k]) for r in rows for k in ("mae", "plane", "elevation", "rotation"))
     assert all(np.isfinite(r[k]) for r in rows for k in board3.MEASURES) and 0 <= rows[0]["success"] <= 1
     assert "| track_3dof | PPO | 1 |" in board3.markdown(rows) and "<table>" in board3.html(rows)

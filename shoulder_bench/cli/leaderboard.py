@@ -14,7 +14,8 @@ def add_parser(sub) -> None:
                    help="evaluation suites: paper (the fixed test set, always scored and ranked on; the default), "
                         "fast, wide, adl, robust (the paper set under delay, noise, strength and a 1 kg load, on "
                         "top of each row's options), or a folder of CSV files (a hidden suite); each beyond paper "
-                        "adds its MAE and its generalisation gap (suite MAE minus paper MAE)")
+                        "adds its MAE and its generalisation gap (suite MAE minus paper MAE); fast, adl and robust "
+                        "also add their 3-DOF MAE to the 3-DOF rows (eval/suites.py SUITES3)")
     p.add_argument("--surgery", nargs="+", type=Path, default=[], metavar="DIR",
                    help="add a 'surgery' section from each `shoulder-bench surgery --out DIR` folder (its "
                         "summary.json: pre-op, zero-shot, fine-tuned and from-scratch MAE per scenario)")
@@ -30,9 +31,14 @@ def _run(args) -> int:
     load_suites(args.suite)  # every suite named and checksummed before any evaluation
     surgery = load_surgery(args.surgery)
     from shoulder_bench.eval import board3
+    from shoulder_bench.eval.suites import load_suite
+
+    for spec in board3.suites_of(args.suite):  # the 3-DOF suites' files too
+        load_suite(spec, "track_3dof")
 
     rows = collect(args.runs, args.pretrained, progress=True, suites=args.suite)
-    paths = write(rows, args.out, surgery, full=board3.collect(args.runs, progress=True, pretrained=args.pretrained))
+    paths = write(rows, args.out, surgery, full=board3.collect(args.runs, progress=True, pretrained=args.pretrained,
+                                                               suites=args.suite))
     print(paths["md"].read_text())
     print("\n".join(str(p) for p in paths.values()))
     return 0

@@ -40,7 +40,10 @@ def add_parser(sub) -> None:
                    help="a named, checksummed suite: paper (the default, = --trajectories test), fast (2-3 s "
                         "segments), wide (5-150 deg), adl (synthetic combing), robust (the paper set under "
                         "delay_frames=1, obs_noise_deg=0.5, strength +-20 %%, a 1 kg hand load, on top of the "
-                        "policy's options); or a folder of CSV files (a hidden suite: every *.csv, sorted)")
+                        "policy's options); or a folder of CSV files (a hidden suite: every *.csv, sorted). On "
+                        "track_3dof(_discrete): fast, adl (the four synthetic ADL profiles) and robust (the 3-DOF "
+                        "test set under the same options) in three dimensions; "
+                        "elevate_scapular_plane_12m: paper, fast, adl, robust in the scapular plane")
     p.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
                    help="a task option for this evaluation over the policy's own, e.g. delay_frames=1 or "
                         "obs_noise_deg=0.5 (repeatable; shoulder-bench tasks --options lists them)")
@@ -102,18 +105,14 @@ def _eval(args) -> int:
 
     if args.suite is not None and args.trajectories is not None:
         raise ValueError("give --suite or --trajectories, not both")
-    suite = None if args.trajectories is not None or three else args.suite or "paper"
-    if three:  # the 3-DOF test set, an ADL profile or a 3-DOF CSV; no suites (yet)
-        if args.suite is not None:
-            raise ValueError(f"--suite: the suites are the 1-DOF tasks'; {hint} takes --trajectories (test, an ADL "
-                             "name or a 3-DOF CSV)")
+    # a 3-DOF task without --suite: --trajectories (default its test set, an ADL profile or a 3-DOF CSV)
+    suite = None if args.trajectories is not None else args.suite or (None if three else "paper")
+    if suite is None:
         label = args.trajectories or "test"
-        trajs = trajectories_for(label, task=hint)
-    elif suite is None:
-        trajs, label = trajectories_for(args.trajectories), args.trajectories
+        trajs = trajectories_for(label, task=hint if three else None)
     else:
         options_for(suite, extra, who="--option")  # a conflict with the suite's options fails before any work
-        trajs, label = load_suite(suite), f"suite {suite}"
+        trajs, label = load_suite(suite, task=hint if three else None), f"suite {suite}"
     policy, meta, task = loaded if loaded is not None else policy_for(args.policy, args.task, options=extra)
     options = dict(meta.get("options") or {}) | extra
     if suite is not None:  # the suite's task options on top of the policy's own (eval.suites.options_for)
