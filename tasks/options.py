@@ -22,9 +22,10 @@ OPTIONS = {
     "muscle_model": "'fem' or 'hill'",
     "alpha": "a finite number in [0, 1e6]",
     "omega_max": "a finite number >= 0",
-    "tracking_only": "None (the task's default), True or False",
+    "tracking_only": "None (the task's default), True or False (1-DOF tasks only)",
     "init": "'hold' or 'zero'",
-    "joint_damping": "a finite number in [0, 10] (N m s/rad on the elevation joint; 0 is the model's)",
+    "joint_damping": "a finite number in [0, 10] (N m s/rad on the elevation joint; 0 is the model's; 1-DOF tasks "
+                     "only)",
     "delay_frames": "an integer in [0, 10] (frames by which the observed angle, velocity and activations are late)",
     "obs_noise_deg": "a finite number >= 0 (Gaussian sigma: deg on the observed angle, deg/s on its velocity)",
     "condition": "None (intact) or a condition of shoulder_bench.conditions (ssp_tear, ssp_partial_tear, "
