@@ -1,25 +1,36 @@
 """Which poses the full shoulder's muscles can hold against gravity: the 3-DOF tasks' workspace (docs/tasks_3dof.md).
 
-    .venv/bin/python benchmarks/workspace_3dof.py      (about 1-2 min on 2 cores)
+    .venv/bin/python benchmarks/workspace_3dof.py [--condition C [--condition C ...]]   (about 1-2 min each)
 
 Static optimisation (`statics_full.Statics.holding`) at every pose of a 10 deg grid over plane 0-90, elevation
 10-130, rotation -40-60 deg; a pose is held when the three equilibrium equations are met within
 statics_full.FEASIBLE_NM. Prints the share held per elevation, and for the train and test boxes of
-`trajectory3.SPLITS` the share held and the largest activation needed (median, max).
+`trajectory3.SPLITS` the share held and the largest activation needed (median, max). `--condition C`: the same for
+the post-op shoulder (`shoulder_bench.conditions`, its law `tasks.track3d.law_for`), one after another: whether the
+muscles a tear leaves can still hold the tasks' poses.
 """
 from __future__ import annotations
 
+import argparse
 import itertools
 
 import numpy as np
 
-from shoulder_bench import full_arm, trajectory3
+from shoulder_bench import conditions, full_arm, trajectory3
 from shoulder_bench.statics_full import FEASIBLE_NM, Statics
-from shoulder_bench.tendon_law import TendonLaw
+from shoulder_bench.tasks.track3d import law_for
 
 
 def main() -> None:
-    st = Statics(TendonLaw.load("fem", groups=full_arm.ACTUATORS))
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--condition", action="append", default=[], help="a shoulder condition (repeatable)")
+    args = p.parse_args()
+    for condition in args.condition or [None]:
+        print(f"\n== {condition or 'intact'}")
+        workspace(Statics(law_for(factors=conditions.factors(condition, full_arm.MUSCLES))))
+
+
+def workspace(st: Statics) -> None:
     rows = []
     for p, e, r in itertools.product(range(0, 91, 10), range(10, 131, 10), range(-40, 61, 10)):
         a, residual = st.holding([p, e, r])
