@@ -49,7 +49,7 @@ def workspace(st: Statics) -> None:
             (h[:, 2] <= r1)
         print(f"{split} box {cfg['range_deg']}: {int(held[box].sum())}/{int(box.sum())} grid poses held; largest "
               f"activation median {np.median(h[box, 4]):.2f}, max {h[box, 4].max():.2f}; not held: "
-              f"{[tuple(int(x) for x in row[:3]) for row in h[box & ~held]][:6]}")
+              f"{[tuple(int(x) for x in row[:3]) for row in h[box & ~held]]}")
 
 
 if __name__ == "__main__":
