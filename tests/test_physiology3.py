@@ -158,9 +158,12 @@ def test_gymnasium_reports_the_3dof_episodes_draw():
 PHYSIOLOGY = {"activation_dynamics": True, "fatigue": True}
 
 
-def test_a_batched_copy_follows_the_single_env_with_activation_dynamics_and_fatigue():
-    env = shoulder_bench.load("track_3dof", seed=1, **PHYSIOLOGY)
-    venv = shoulder_bench.make_vec("track_3dof", 2, seed=0, **PHYSIOLOGY)
+@pytest.mark.parametrize("options", [PHYSIOLOGY, {"condition": "deltoid_weakness", "weakness_fraction": 0.8}])
+def test_a_batched_copy_follows_the_single_env_with_the_physiology_or_a_condition(options):
+    """Copy 1 of the batched env and the single env seeded 1 under the same actions: the same angles (to the solver's
+    warmstart) and activations, and with the physiology options the same excitation and fatigue."""
+    env = shoulder_bench.load("track_3dof", seed=1, **options)
+    venv = shoulder_bench.make_vec("track_3dof", 2, seed=0, **options)
     env.reset()
     rng = np.random.default_rng(4)
     for _ in range(12):
@@ -170,8 +173,9 @@ def test_a_batched_copy_follows_the_single_env_with_activation_dynamics_and_fati
         obs = venv.observation_array()[1]
         np.testing.assert_allclose(ts.observation["angle"], obs[:3], atol=1e-6)
         np.testing.assert_allclose(ts.observation["activations"], obs[12:], atol=1e-12)
-    np.testing.assert_allclose(env.task.fatigue_state, venv.fatigue_state[1], atol=1e-12)
-    np.testing.assert_allclose(env.task.excitation, venv.excitation[1], atol=1e-12)
+    if env.task.physiology:
+        np.testing.assert_allclose(env.task.fatigue_state, venv.fatigue_state[1], atol=1e-12)
+        np.testing.assert_allclose(env.task.excitation, venv.excitation[1], atol=1e-12)
     venv.close()
 
 
