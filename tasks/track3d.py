@@ -81,7 +81,6 @@ class Physics3(Physics):
     """The full shoulder with named accessors (degrees at this surface); `step` and its per-physics-step activation
     `plan` (the physiology options) are the 1-DOF tasks' `abduction.Physics`'."""
 
-
     def _adr(self):
         adr = self.__dict__.get("_adr3")
         if adr is None:
