@@ -298,7 +298,7 @@ def suite_figure(rows: list[dict]) -> str:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from shoulder_bench.eval.leaderboard import _png
+    from shoulder_bench.eval.plots import png_base64
 
     sets = ["test", *rows[0]["suites"]]
     width = 0.8 / len(sets)
@@ -312,7 +312,7 @@ def suite_figure(rows: list[dict]) -> str:
     ax.grid(alpha=0.3, axis="x", which="both")
     ax.legend(fontsize=8, loc="lower right")
     fig.tight_layout()
-    return _png(fig)
+    return png_base64(fig)
 
 
 def html(rows: list[dict]) -> str:

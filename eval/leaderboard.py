@@ -14,9 +14,7 @@ renamed into place together once all are complete.
 """
 from __future__ import annotations
 
-import base64
 import hashlib
-import io
 import json
 from collections import defaultdict
 from pathlib import Path
@@ -247,15 +245,6 @@ def findings(rows: list[dict]) -> list[str]:
     return out
 
 
-def _png(fig) -> str:
-    import matplotlib.pyplot as plt
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
-    plt.close(fig)
-    return base64.b64encode(buf.getvalue()).decode()
-
-
 def _label(r: dict) -> str:
     return (f"{r['algo'].upper() if r['algo'] in ('ppo', 'dqn', 'bdq') else r['algo']} · {r['task']}"
             + (f" ({where(r)})" if r["source"] != "model-based" else ""))
@@ -268,7 +257,7 @@ def _figure(rows: list[dict]) -> str:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from shoulder_bench.eval.plots import error_boxes
+    from shoulder_bench.eval.plots import error_boxes, png_base64
 
     scored = [r for r in rows if "per_trajectory_mae" in r]
     groups = [(_label(r), paper_errors(r["task"], r["algo"]), np.array(r["per_trajectory_mae"]),
@@ -282,13 +271,13 @@ def _figure(rows: list[dict]) -> str:
     axes[2].grid(alpha=0.3, axis="x")
     axes[0].invert_yaxis()
     fig.tight_layout()
-    return _png(fig)
+    return png_base64(fig)
 
 
 def _curves(rows: list[dict]) -> str | None:
     """Sample-efficiency curves (test MAE against frames, mean and 95 % band over seeds), one panel per muscle set,
     every row with an evaluation history; None if none has one."""
-    from shoulder_bench.eval.plots import sample_efficiency_figure
+    from shoulder_bench.eval.plots import png_base64, sample_efficiency_figure
     from shoulder_bench.tasks import TASKS
 
     panels: dict[str, list] = {}
@@ -297,7 +286,7 @@ def _curves(rows: list[dict]) -> str | None:
             muscles = TASKS[r["task"]][0]
             name = "one muscle (" + muscles[0] + ")" if len(muscles) == 1 else f"{len(muscles)} muscles"
             panels.setdefault(name, []).append((f"{_label(r)}, n = {r['curve']['n']}", r["curve"]))
-    return _png(sample_efficiency_figure(panels)) if panels else None
+    return png_base64(sample_efficiency_figure(panels)) if panels else None
 
 
 def load_surgery(folders) -> list[dict]:

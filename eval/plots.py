@@ -27,6 +27,17 @@ import matplotlib.pyplot as plt  # noqa: E402
 MUSCLE_COLOURS = {"ssp": "tab:orange", "isp": "tab:green", "dmi": "tab:red", "ld": "tab:purple"}
 
 
+def png_base64(fig) -> str:
+    """`fig` as a base64 PNG (for an html page's data: URL), the figure closed."""
+    import base64
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    plt.close(fig)
+    return base64.b64encode(buf.getvalue()).decode()
+
+
 def checked(out: Path | str) -> Path:
     """The figure's path, checked before any work: a .png, .svg or .pdf name that is not a folder."""
     out = Path(out)
