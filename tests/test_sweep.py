@@ -133,8 +133,12 @@ def _gone(pid, timeout=30):
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_interrupting_a_sweep_stops_it_and_its_children(tmp_path, sig):
     out = tmp_path / "runs"
+    # SIGINT's default action in the sweep, whatever the test runner inherited: a background job of a non-interactive
+    # shell starts with SIGINT ignored, and Python then installs no KeyboardInterrupt handler (the sweep would rightly
+    # ignore the Ctrl-C, as a background job should)
     proc = subprocess.Popen(_sweep_cmd(out, _cfg(tmp_path, "ppo.json", PPO)), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     child = _running_child(out)
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=60)
