@@ -108,6 +108,12 @@ def draw(generator: np.random.Generator, spec: dict, n: int) -> dict:
             "load_kg": float(lo + (hi - lo) * w)}
 
 
+def groups(m: mujoco.MjModel, actuators: dict, muscles) -> list[list[int]]:
+    """Each of `muscles`' actuator ids in model `m` (`actuators`: muscle -> its actuators' names; ld: three), the
+    groups a strength draw scales together (`Nominal`)."""
+    return [[m.actuator(a).id for a in actuators[k]] for k in muscles]
+
+
 class Nominal:
     """A model's nominal values of what `apply` changes, read once (before any change)."""
 

@@ -7,7 +7,6 @@ U[20, 100] deg) or a given one. Numerical failure ends the episode with a penalt
 """
 from __future__ import annotations
 
-import collections
 import math
 
 import numpy as np
@@ -18,29 +17,16 @@ from dm_control.rl.control import PhysicsError
 from dm_env import specs
 
 from shoulder_bench import arm as arm_
-from shoulder_bench import conditions, physiology, protocol, randomization, statics, trajectory
+from shoulder_bench import protocol, statics, trajectory
 from shoulder_bench.model import DEFAULT_MUSCLE_MODEL, attach_law, install_callbacks, law_of
 from shoulder_bench.tasks import options as opt
 from shoulder_bench.tasks import sensing
+from shoulder_bench.tasks.single_env import SingleEnv
 from shoulder_bench.trajectory import as_trajectory
 
 VALID_MARGIN_DEG = arm_.VALID_MARGIN_DEG  # beyond the joint range by more than this = the simulation has failed
 MAX_JOINT_DAMPING = 10.0  # N m s/rad: the sensitivity runs use 0.1-1.0; far above, RK4 at 50 ms is not stable
 INITS = ("hold", "zero")  # start at rest on the target with the holding activations, or with none
-
-
-def physiology_frame(task, physics, delta: np.ndarray) -> np.ndarray:
-    """The single env's frame of the physiology options (`physiology.frame` with one copy): moves the task's
-    excitation, activation and fatigue state to the frame's end; returns the activation of each physics step
-    (steps, n), the plan `Physics.step` applies. The 1-DOF and 3-DOF tasks share it."""
-    steps = int(round(protocol.FRAME_S / physics.model.opt.timestep))
-    fatigue = None if task.fatigue_state is None else task.fatigue_state[None]
-    acting, command, a, state = physiology.frame(task.excitation[None], task.activation[None], fatigue, delta[None],
-                                                 steps, float(physics.model.opt.timestep), task.activation_dynamics,
-                                                 task.fatigue)
-    task.excitation, task.activation = command[0], a[0]
-    task.fatigue_state = None if state is None else state[0]
-    return acting[0]
 
 
 class Physics(_Physics):
@@ -127,9 +113,11 @@ def make_physics(muscles, muscle_model: str, condition: dict | None = None) -> P
     return Physics.from_model(wrapper.MjModel(model))
 
 
-class Abduction(control.Task):
+class Abduction(SingleEnv, control.Task):
     """Track a target abduction angle with the activations of `muscles`. Bad options raise ValueError naming the
     option and what it accepts (`shoulder_bench.tasks.options`)."""
+
+    ACTUATORS = arm_.ACTUATORS
 
     def __init__(self, muscles, discrete=False, split="train", trajectory_=None, tracking_only=None,
                  alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", joint_damping=0.0,
@@ -150,34 +138,13 @@ class Abduction(control.Task):
         self.init = opt.choice("init", init, INITS)
         # viscous damping of the elevation joint (N m s/rad); the model has none (docs/model_v2.md "Damping")
         self.joint_damping = opt.number("joint_damping", joint_damping, 0.0, MAX_JOINT_DAMPING)
-        # what the agent senses (shoulder_bench.tasks.sensing): k frames late, with Gaussian noise
-        self.delay_frames = opt.integer("delay_frames", delay_frames, 0, sensing.MAX_DELAY_FRAMES)
-        self.obs_noise_deg = opt.number("obs_noise_deg", obs_noise_deg, 0.0)
-        # the shoulder's condition (shoulder_bench.conditions): checked here, applied to the law by make_physics
-        conditions.factors(condition, self.muscles, tear_fraction, weakness_fraction)
-        self.condition = {k: v for k, v in (("condition", condition), ("tear_fraction", tear_fraction),
-                                            ("weakness_fraction", weakness_fraction)) if v is not None}
-        # muscle physiology (shoulder_bench.physiology, shoulder_bench.randomization)
-        self.activation_dynamics = bool(opt.flag("activation_dynamics", activation_dynamics))
-        self.fatigue = physiology.fatigue_option(fatigue)
-        self.randomize = randomization.option(randomize)
-        self.physiology = self.activation_dynamics or self.fatigue is not None  # the per-step activation path
-        self.excitation = self.activation = self.fatigue_state = None  # (n,), (n,), (n, 3) with `physiology`
-        self.arm_draw: dict | None = None  # this episode's randomised arm (randomize)
-        self._nominal = None
-        self.history: collections.deque | None = None  # the last delay_frames + 1 sensed states, oldest first
-        self.noise_z: np.ndarray | None = None  # (1, 2) standard normals of the observation now (None: no noise)
-        self.reseed(random)
+        # sensing, condition (applied to the law by make_physics), physiology; the generators (SingleEnv)
+        self._setup_options(delay_frames, obs_noise_deg, condition, tear_fraction, weakness_fraction,
+                            activation_dynamics, fatigue, randomize, random)
         self.target: trajectory.Trajectory | None = None
         self.frame = 0
         self.sent = np.zeros(len(self.muscles))
         self.law = None
-
-    def reseed(self, seed) -> None:
-        seed = opt.seed(seed)
-        self.rng = np.random.default_rng(seed)
-        self.noise_rng = sensing.noise_rng(seed)
-        self.randomize_rng = randomization.rng(seed)
 
     # --- dm_control Task API -------------------------------------------------------------------------------------
     def action_spec(self, physics):
@@ -204,20 +171,7 @@ class Abduction(control.Task):
         if self.init == "hold":
             physics.set_activations(self.muscles,
                                     statics.holding_activation(self._law(physics), self.target.angle_deg[0])[0])
-        if self.randomize is not None:
-            if self._nominal is None:
-                groups = [[physics.model.name2id(a, "actuator") for a in arm_.ACTUATORS[m]] for m in self.muscles]
-                self._nominal = randomization.Nominal(physics.model.ptr, groups)
-            self.arm_draw = randomization.draw(self.randomize_rng, self.randomize, len(self.muscles))
-            randomization.apply(physics.model.ptr, self._nominal, self.arm_draw)
-        if self.physiology:
-            self.activation = physics.data.ctrl[self._ids].copy()
-            self.excitation = self.activation.copy()
-            self.fatigue_state = None if self.fatigue is None else physiology.fresh_fatigue(self.activation)
-        if self.delay_frames:
-            self.history = collections.deque([self.sense(physics)] * (self.delay_frames + 1),
-                                             maxlen=self.delay_frames + 1)
-        self.draw_noise()
+        self._start_episode(physics)
 
     def _law(self, physics):
         if self.law is None:
@@ -228,15 +182,10 @@ class Abduction(control.Task):
         """Validate, then apply: bad input raises ValueError before anything changes."""
         delta, sent = self.action_to_delta(action)
         self.sent = sent
-        if not self.physiology:
-            physics.set_activations(self.muscles, np.clip(physics.data.ctrl[self._ids] + delta, 0.0, 1.0))
-            return
-        physics.plan = (self.muscles, physiology_frame(self, physics, delta))
+        self._apply_change(physics, delta)
 
-    def activations_now(self, physics) -> np.ndarray:
-        """(n,) the muscles' activations as observed: the activation state with the physiology options, else the
-        activation in force (ctrl)."""
-        return self.activation.copy() if self.physiology else physics.data.ctrl[self._ids].copy()
+    def _ctrl_activations(self, physics) -> np.ndarray:
+        return physics.data.ctrl[self._ids]
 
     def action_to_delta(self, action) -> tuple[np.ndarray, np.ndarray]:
         """(applied change, change as sent) from an action; raises ValueError for NaN/inf or a wrong shape."""
@@ -246,17 +195,11 @@ class Abduction(control.Task):
     def after_step(self, physics):
         self.frame += 1
         physics.check_failure()
-        if self.history is not None:
-            self.history.append(self.sense(physics))
-        self.draw_noise()
+        self._sense_step(physics)
 
     def sense(self, physics) -> np.ndarray:
         """(1, 2 + n): the true angle (deg), velocity (deg/s) and activations now."""
         return sensing.state(physics.angle_deg(), physics.angular_velocity_deg(), self.activations_now(physics))
-
-    def draw_noise(self) -> None:
-        """The noise of the observation of this frame: drawn once per reset and per step, whoever reads it."""
-        self.noise_z = sensing.draw(self.noise_rng) if self.obs_noise_deg > 0 else None
 
     def get_observation(self, physics):
         k = min(self.frame + 1, len(self.target.angle_deg) - 1)

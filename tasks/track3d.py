@@ -19,7 +19,7 @@ humerus mass and a load at the elbow, MoBL's humerus frame as the v2 arm's), and
 `tear_fraction`, `weakness_fraction`: `shoulder_bench.conditions`' tears and weakness scale or remove muscles' tabled
 forces, `law_for`; the reference controller plans with them; ld_transfer, a rerouting, is the v2 arm's only), and
 the muscle physiology (`activation_dynamics`, `fatigue`: `shoulder_bench.physiology`, the 1-DOF tasks' per-step
-activation path, `abduction.physiology_frame`).
+activation path, `single_env.SingleEnv`).
 
 Targets (`trajectory3`): random quintic segments per coordinate (train 10 s, test 20 s, wider ranges), a CSV file
 (time_s, plane_deg, elevation_deg, rotation_deg), an ADL name, or (K, 3) degrees. `workspace="scapular_plane"`:
@@ -28,7 +28,6 @@ abduction protocol with all muscles.
 """
 from __future__ import annotations
 
-import collections
 import copy
 
 import numpy as np
@@ -40,9 +39,7 @@ from shoulder_bench import (
     band_lines,
     conditions,
     full_arm,
-    physiology,
     protocol,
-    randomization,
     statics_full,
     trajectory,
     trajectory3,
@@ -50,7 +47,8 @@ from shoulder_bench import (
 from shoulder_bench.model import attach_law, install_callbacks
 from shoulder_bench.tasks import options as opt
 from shoulder_bench.tasks import sensing
-from shoulder_bench.tasks.abduction import Physics, physiology_frame
+from shoulder_bench.tasks.abduction import Physics
+from shoulder_bench.tasks.single_env import SingleEnv
 from shoulder_bench.tendon_law import TendonLaw
 
 VALID_MARGIN_DEG = 30.0  # as the 1-DOF tasks' (arm.VALID_MARGIN_DEG)
@@ -116,10 +114,11 @@ class Physics3(Physics):
         return self._failed
 
 
-class Track3D(control.Task):
+class Track3D(SingleEnv, control.Task):
     """Track a 3-DOF target with the full shoulder's muscles. Bad options raise ValueError naming the option."""
 
-    dofs = 3
+    dofs = DOFS = 3
+    ACTUATORS = full_arm.ACTUATORS
 
     def __init__(self, muscles=full_arm.MUSCLES, discrete=False, split="train", trajectory_=None,
                  alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", workspace="3dof",
@@ -138,41 +137,19 @@ class Track3D(control.Task):
         self.init = opt.choice("init", init, INITS)
         self.workspace = opt.choice("workspace", workspace, WORKSPACES)
         self.line_of_action = opt.choice("line_of_action", line_of_action, band_lines.LINES)
-        # what the agent senses (shoulder_bench.tasks.sensing): k frames late, with Gaussian noise
-        self.delay_frames = opt.integer("delay_frames", delay_frames, 0, sensing.MAX_DELAY_FRAMES)
-        self.obs_noise_deg = opt.number("obs_noise_deg", obs_noise_deg, 0.0)
-        self.randomize = randomization.option(randomize)  # each episode's arm (shoulder_bench.randomization)
-        # muscle physiology (shoulder_bench.physiology), as the 1-DOF tasks'
-        self.activation_dynamics = bool(opt.flag("activation_dynamics", activation_dynamics))
-        self.fatigue = physiology.fatigue_option(fatigue)
-        self.physiology = self.activation_dynamics or self.fatigue is not None  # the per-step activation path
-        self.excitation = self.activation = self.fatigue_state = None  # (n,), (n,), (n, 3) with `physiology`
-        # the shoulder's condition (shoulder_bench.conditions): its force factors scale the law (law_for)
-        if conditions.geometry(condition) is not None:
+        if conditions.geometry(condition) is not None:  # its factors scale the law (law_for); no rerouting here
             raise ValueError(f"condition {condition!r} reroutes a muscle, which the v2 arm's 1-DOF tasks model (their "
                              "own model and tables); the full shoulder has no rerouted model yet: use a tear or a "
                              "weakness here")
-        self.factors = conditions.factors(condition, self.muscles, tear_fraction, weakness_fraction)
-        self.condition = {k: v for k, v in (("condition", condition), ("tear_fraction", tear_fraction),
-                                            ("weakness_fraction", weakness_fraction)) if v is not None}
-        self.arm_draw: dict | None = None  # this episode's randomised arm (randomize)
-        self._nominal: randomization.Nominal | None = None
-        self.history: collections.deque | None = None  # the last delay_frames + 1 sensed states, oldest first
-        self.noise_z: np.ndarray | None = None  # (1, 6) standard normals of the observation now (None: no noise)
-        self.noise_rng = sensing.noise_rng(opt.seed(random))
-        self.randomize_rng = randomization.rng(opt.seed(random))
+        # sensing, condition, physiology; the generators (SingleEnv)
+        self._setup_options(delay_frames, obs_noise_deg, condition, tear_fraction, weakness_fraction,
+                            activation_dynamics, fatigue, randomize, random)
         self.fixed = trajectory_
-        self.rng = np.random.default_rng(opt.seed(random))
         self.target: trajectory3.Trajectory3 | None = None
         self.frame = 0
         self.sent = np.zeros(len(self.muscles))
         self.statics: statics_full.Statics | None = None
         self.pose: full_arm.Pose | None = None
-
-    def reseed(self, seed) -> None:
-        self.rng = np.random.default_rng(opt.seed(seed))
-        self.noise_rng = sensing.noise_rng(opt.seed(seed))
-        self.randomize_rng = randomization.rng(opt.seed(seed))
 
     def draw_target(self, rng: np.random.Generator | None = None) -> trajectory3.Trajectory3:
         """The next episode's target: the fixed one, or drawn from `rng` (default the task's own)."""
@@ -204,48 +181,25 @@ class Track3D(control.Task):
         physics.data.ctrl[:] = 0.0
         if self.init == "hold":  # the nominal arm's, randomised or not (as the 1-DOF tasks')
             physics.set_activations(self.muscles, self.statics.holding(self.target.angle_deg[0])[0])
-        if self.randomize is not None:
-            if self._nominal is None:
-                self._nominal = randomization.Nominal(physics.model.ptr, actuator_groups(physics.model.ptr,
-                                                                                        self.muscles))
-            self.arm_draw = randomization.draw(self.randomize_rng, self.randomize, len(self.muscles))
-            randomization.apply(physics.model.ptr, self._nominal, self.arm_draw)
-        if self.physiology:
-            self.activation = physics.activations(self.muscles).copy()
-            self.excitation = self.activation.copy()
-            self.fatigue_state = None if self.fatigue is None else physiology.fresh_fatigue(self.activation)
-        self.history = None if not self.delay_frames else collections.deque(
-            [self.sense(physics)] * (self.delay_frames + 1), maxlen=self.delay_frames + 1)
-        self.draw_noise()
+        self._start_episode(physics)
 
     def before_step(self, action, physics):
         applied, sent = protocol.to_delta(action, len(self.muscles), self.discrete)
         self.sent = sent[0]
-        if self.physiology:  # the activation of each physics step (abduction.physiology_frame)
-            physics.plan = (self.muscles, physiology_frame(self, physics, applied[0]))
-        else:
-            physics.set_activations(self.muscles, np.clip(physics.activations(self.muscles) + applied[0], 0.0, 1.0))
+        self._apply_change(physics, applied[0])
 
-    def activations_now(self, physics) -> np.ndarray:
-        """(n,) the muscles' activations as observed: the activation state with the physiology options, else the
-        activation in force (ctrl)."""
-        return self.activation.copy() if self.physiology else physics.activations(self.muscles).copy()
+    def _ctrl_activations(self, physics) -> np.ndarray:
+        return physics.activations(self.muscles)
 
     def after_step(self, physics):
         self.frame += 1
         physics.check_failure()
-        if self.history is not None:
-            self.history.append(self.sense(physics))
-        self.draw_noise()
+        self._sense_step(physics)
 
     def sense(self, physics) -> np.ndarray:
         """(1, 6 + n): the true angles (deg), velocities (deg/s) and activations now."""
         return sensing.state(physics.coordinates_deg()[None], physics.velocities_deg()[None],
                              self.activations_now(physics))
-
-    def draw_noise(self) -> None:
-        """The noise of the observation of this frame: drawn once per reset and per step, whoever reads it."""
-        self.noise_z = sensing.draw(self.noise_rng, 3) if self.obs_noise_deg > 0 else None
 
     def get_observation(self, physics):
         k = min(self.frame + 1, len(self.target.angle_deg) - 1)
@@ -273,12 +227,6 @@ class Track3D(control.Task):
         if self.frame >= self.target.frames:
             return 1.0
         return None
-
-
-def actuator_groups(m, muscles) -> list[list[int]]:
-    """Each muscle's actuator ids in model `m` (ld: its three bundles), for `randomization.Nominal`."""
-    names = [m.actuator(i).name for i in range(m.nu)]
-    return [[names.index(a) for a in full_arm.ACTUATORS[k]] for k in muscles]
 
 
 def law_for(muscle_model: str = "fem", line_of_action: str = "mjcf", factors: dict | None = None) -> TendonLaw:

@@ -60,8 +60,7 @@ class VecEnv(Lockstep):
         self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread, prepare=harden_couplings,
                                   engine=batch_engine(), **source)
         self.sim.model.dof_damping[self.sim.dadr] = self.task.joint_damping
-        names = [self.sim.model.actuator(i).name for i in range(self.sim.model.nu)]
-        self._setup_physiology(seed, [[names.index(a) for a in arm_.ACTUATORS[m]] for m in self.muscles])
+        self._setup_physiology(seed, randomization.groups(self.sim.model, arm_.ACTUATORS, self.muscles))
         self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
         self._setup_sensing(seed)
         split_frames = int(round(targets.SPLITS[self.task.split]["duration_s"] / protocol.FRAME_S))

@@ -19,7 +19,7 @@ from shoulder_bench.simulator import BatchSimulator
 from shoulder_bench.tasks import TASKS_3DOF, check_name, sensing
 from shoulder_bench.tasks import options as options_check
 from shoulder_bench.tasks.lockstep import Lockstep
-from shoulder_bench.tasks.track3d import Track3D, actuator_groups, law_for, valid_range_deg
+from shoulder_bench.tasks.track3d import Track3D, law_for, valid_range_deg
 
 
 class VecEnv3(Lockstep):
@@ -60,7 +60,7 @@ class VecEnv3(Lockstep):
         self.valid_lo, self.valid_hi = valid_range_deg(m)
         self.rngs = [np.random.default_rng(None if seed is None else seed + i) for i in range(self.num_envs)]
         self._setup_sensing(seed)
-        self._setup_physiology(seed, actuator_groups(m, self.muscles))
+        self._setup_physiology(seed, randomization.groups(m, full_arm.ACTUATORS, self.muscles))
         split_frames = int(round(trajectory3.SPLITS[self.task.split]["duration_s"] / protocol.FRAME_S))
         self.episode_frames = np.array([split_frames if t is None else t.frames for t in self.fixed])
         self.max_episode_length = int(self.episode_frames.max())

@@ -11,7 +11,6 @@ import pytest
 import shoulder_bench
 from shoulder_bench import full_arm, randomization
 from shoulder_bench.model import attach_law, install_callbacks
-from shoulder_bench.tasks.track3d import actuator_groups
 from shoulder_bench.tendon_law import TendonLaw
 
 ROBUST_ARM = {"strength": 0.2, "mass": 0.1, "load": (0.5, 1.5)}
@@ -50,7 +49,7 @@ def test_the_load_sits_at_the_elbow_of_the_full_arm():
     """A 1 kg load changes the gravity term of the equations of motion by J(elbow)^T (0, 0, g): a point mass at the
     MoBL elbow centre in the humerus frame; the strength scales every tendon of a muscle (ld's three) by its draw."""
     m = full_arm.compile_full()
-    nominal = randomization.Nominal(m, actuator_groups(m, full_arm.MUSCLES))
+    nominal = randomization.Nominal(m, randomization.groups(m, full_arm.ACTUATORS, full_arm.MUSCLES))
     d = mujoco.MjData(m)
     d.qpos[:] = full_arm.Pose(m).qpos([50.0, 70.0, 10.0])[0]
     mujoco.mj_forward(m, d)
