@@ -31,24 +31,21 @@ def main() -> None:
 
 
 def workspace(st: Statics) -> None:
-    rows = []
-    for p, e, r in itertools.product(range(0, 91, 10), range(10, 131, 10), range(-40, 61, 10)):
-        a, residual = st.holding([p, e, r])
-        rows.append((p, e, r, residual, a.max()))
-    h = np.array(rows)
-    held = h[:, 3] <= FEASIBLE_NM
+    h = np.array(list(itertools.product(range(0, 91, 10), range(10, 131, 10), range(-40, 61, 10))), dtype=float)
+    held, amax = st.held(h)
+    h = np.c_[h, amax]
     print(f"{len(h)} poses (plane 0-90, elevation 10-130, rotation -40-60 deg, 10 deg grid), held within "
           f"{FEASIBLE_NM:g} N m:")
     for e in np.unique(h[:, 1]):
         at = h[:, 1] == e
         print(f"  elevation {e:5.0f}: {100 * held[at].mean():5.1f} % held, median largest activation "
-              f"{np.median(h[at, 4]):.2f}")
+              f"{np.median(h[at, 3]):.2f}")
     for split, cfg in trajectory3.SPLITS.items():
         (p0, p1), (e0, e1), (r0, r1) = cfg["range_deg"]
         box = (h[:, 0] >= p0) & (h[:, 0] <= p1) & (h[:, 1] >= e0) & (h[:, 1] <= e1) & (h[:, 2] >= r0) & \
             (h[:, 2] <= r1)
         print(f"{split} box {cfg['range_deg']}: {int(held[box].sum())}/{int(box.sum())} grid poses held; largest "
-              f"activation median {np.median(h[box, 4]):.2f}, max {h[box, 4].max():.2f}; not held: "
+              f"activation median {np.median(h[box, 3]):.2f}, max {h[box, 3].max():.2f}; not held: "
               f"{[tuple(int(x) for x in row[:3]) for row in h[box & ~held]]}")
 
 

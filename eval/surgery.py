@@ -3,7 +3,8 @@
 Per scenario (task, algorithm, condition) and seed:
   pre-op     the shipped agent of the task and algorithm (`--pretrained`), a finished run (`--preop-run DIR`: one run
              for every seed, or DIR/<seed>/ per seed), or one trained now on the intact shoulder (`--frames`);
-  zero-shot  the pre-op agent evaluated on the post-op shoulder (task option condition=C), paper test set;
+  zero-shot  the pre-op agent evaluated on the post-op shoulder (task option condition=C), the task's fixed test set
+             (`tasks.fixed_test_set`: the paper's on the 1-DOF tasks, the 3-DOF one on track_3dof);
   fine-tune  the pre-op policy trained on, post-op (`experiment.train(..., init_from=...)`: a run of its own whose
              identity records the state it starts from), evaluated every `eval_every` frames;
   scratch    an agent trained post-op from a random initialisation, by default on the fine-tune's frame budget;
@@ -20,9 +21,10 @@ agent's training frames.
 
 Checked before any work: the task, algorithm, condition (unknown and not-yet-available conditions, ones that remove a
 muscle the task needs), the pre-op source, and that the post-op muscles can hold the arm still at every angle of the
-task's test range (20-100 deg; `statics.static_capacity` against `statics.gravity_torque`, 0.1 deg grid): where they
-cannot, the post-op shoulder cannot physically do the task, which is an error naming the angles and the static reach
-unless `allow_unreachable` (then the report says so).
+task's test range (1-DOF: 20-100 deg; `statics.static_capacity` against `statics.gravity_torque`, 0.1 deg grid;
+3-DOF: every pose of the test box on a 10 deg grid, `statics_full.Statics.held`): where they cannot, the post-op
+shoulder cannot physically do the task, which is an error naming the angles (poses) unless `allow_unreachable` (then
+the report says so).
 
 Writes to `out`: per scenario the run folders `<task>/<algo>/preop|<condition>/{finetune,scratch}/<seed>` (each a
 normal run folder, resumed when the command runs again), `summary.json`, `report.md` with figures in `figures/`, and
@@ -53,7 +55,8 @@ RECOVERY = 0.9  # recover 90 % of the pre-op accuracy
 GOAL_SHARE = 0.10  # ... within 10 % of the pre-op training frames (issue 13)
 CURVE_POINTS = 8  # default fine-tune / scratch evaluations over the budget
 DEFAULT_ALGO = {"abduction_ssp": "ppo", "abduction_4m": "ppo", "abduction_ssp_discrete": "dqn",
-                "abduction_4m_discrete": "bdq"}
+                "abduction_4m_discrete": "bdq", "track_3dof": "ppo", "track_3dof_discrete": "bdq",
+                "elevate_scapular_plane_12m": "ppo"}
 # a fine-tune of a Q-learner starts from a good greedy policy: explore little and learn from the start, not with the
 # from-scratch schedule (100 % random actions for the first 10k frames, then epsilon from 1.0 over 100k frames)
 QLEARNING_FINETUNE = {"eps_start": 0.1, "eps_end": 0.02, "learning_starts": 1_000}
@@ -62,15 +65,16 @@ QLEARNING_FINETUNE = {"eps_start": 0.1, "eps_end": 0.02, "learning_starts": 1_00
 # --- measures ---------------------------------------------------------------------------------------------------------
 def shares(trace: dict, muscles) -> dict:
     """Each muscle's share of the summed activation over the recorded test set: overall, below 45 deg (early) and
-    at or above (late)."""
+    at or above (late) of abduction (1-DOF tasks) or elevation (3-DOF tasks)."""
     from shoulder_bench.eval.measures import early_late_share
 
-    a = trace["activation"][~np.isnan(trace["angle_deg"])]
+    angle = trace["angle_deg"] if trace["angle_deg"].ndim == 2 else trace["angle_deg"][..., 1]  # (B, T, 3): elevation
+    a = trace["activation"][~np.isnan(angle)]
     total = a.sum()
     out = {"all": {m: float(a[:, k].sum() / total) if total > 0 else float("nan") for k, m in enumerate(muscles)},
            "early": {}, "late": {}}
     for m in muscles:
-        out["early"][m], out["late"][m] = early_late_share(trace["angle_deg"], trace["activation"], muscles, (m,))
+        out["early"][m], out["late"][m] = early_late_share(angle, trace["activation"], muscles, (m,))
     return out
 
 
@@ -105,7 +109,8 @@ def _evaluation(policy, task, test, meta, options) -> tuple[dict, dict]:
 
     m = evaluate(policy, task, test, muscle_model=meta.get("muscle_model"), record=True, options=options)
     trace = m.pop("trace")
-    return {k: m[k] for k in ("mae_deg", "rmse_deg", "crashes", "n_trajectories")}, trace
+    keys = ("mae_deg", "rmse_deg", "crashes", "n_trajectories", "coordinate_mae_deg")  # the last: 3-DOF tasks
+    return {k: m[k] for k in keys if k in m}, trace
 
 
 def _mean_std(values) -> list[float] | None:
@@ -206,13 +211,13 @@ def run_scenario(sc: dict, out: Path, config: Path | None = None, progress: bool
     """One scenario, every seed: (its summary, the recorded traces for the figures)."""
     from shoulder_bench.eval.evaluate import policy_for
     from shoulder_bench.eval.experiment import train
-    from shoulder_bench.tasks import TASKS
-    from shoulder_bench.trajectory import load_test_set
+    from shoulder_bench.tasks import fixed_test_set
+    from shoulder_bench.tasks import spec as task_spec
 
-    task, algo, muscles = sc["task"], sc["algo"], TASKS[sc["task"]][0]
+    task, algo, muscles = sc["task"], sc["algo"], task_spec(sc["task"])[0]
     base = Path(out) / task / algo
     where = base / sc["folder"]
-    test = load_test_set()
+    test = fixed_test_set(task)
     say = print if progress else (lambda *a, **k: None)
     ft_config = _finetune_config(sc, where, config)
     seeds, traces, preop_done = [], {}, {}
@@ -261,9 +266,9 @@ def run_scenario(sc: dict, out: Path, config: Path | None = None, progress: bool
 def summarise(sc: dict, seeds: list[dict]) -> dict:
     """The scenario's summary: its setting, the per-seed records and their means ± std over seeds."""
     from shoulder_bench.conditions import factors
-    from shoulder_bench.tasks import TASKS
+    from shoulder_bench.tasks import spec
 
-    muscles = TASKS[sc["task"]][0]
+    muscles = spec(sc["task"])[0]
     removed = [m for m, f in factors(sc["options"]["condition"], muscles,
                                      **{k: sc["options"][k] for k in FRACTION_OPTIONS if k in sc["options"]}).items()
                if f == 0.0]
@@ -276,6 +281,9 @@ def summarise(sc: dict, seeds: list[dict]) -> dict:
                      "accuracy": _mean_std(r.get("accuracy", 1.0) for r in rows),
                      "shares": {m: _mean_std(r["shares"]["all"][m] for r in rows) for m in muscles},
                      "crashes": sum(r["crashes"] for r in rows)}
+        if "coordinate_mae_deg" in rows[0]:  # the 3-DOF tasks: each coordinate's MAE
+            agg[kind]["coordinate_mae_deg"] = {c: _mean_std(r["coordinate_mae_deg"][c] for r in rows)
+                                               for c in rows[0]["coordinate_mae_deg"]}
         if kind in ("finetune", "scratch"):
             rec = [r["recovery"] for r in rows]
             agg[kind]["reached"] = f"{sum(r['reached'] for r in rec)}/{len(rec)}"
@@ -325,7 +333,8 @@ def surgery(tasks, conditions, algo=None, seeds=(0,), frames=None, finetune_fram
         summary, tr = run_scenario(sc, out, config, progress)
         results.append(summary)
         traces.append(tr)
-    summary = {"definition": ACCURACY_DEFINITION, "tables": tables_provenance(scenarios[0]["muscle_model"]),
+    tables = [tables_provenance(sc["task"], sc["muscle_model"]) for sc in scenarios]
+    summary = {"definition": ACCURACY_DEFINITION, "tables": [t for k, t in enumerate(tables) if t not in tables[:k]],
                "scenarios": results}
     paths = surgery_report.write(summary, traces, out)
     if progress:
@@ -335,7 +344,8 @@ def surgery(tasks, conditions, algo=None, seeds=(0,), frames=None, finetune_fram
     return summary
 
 
-ACCURACY_DEFINITION = (f"accuracy = MAE_pre / MAE on the paper test set (100 trajectories), MAE_pre the pre-op agent's "
+ACCURACY_DEFINITION = (f"accuracy = MAE_pre / MAE on the task's fixed test set (100 trajectories; on the 3-DOF tasks "
+                       f"the MAE of the humerus orientation), MAE_pre the pre-op agent's "
                        f"MAE on the intact shoulder; recovered = the first evaluation with accuracy >= {RECOVERY:g} "
                        f"(MAE <= MAE_pre / {RECOVERY:g}); the goal: within {GOAL_SHARE:.0%} of the pre-op agent's "
                        f"training frames")

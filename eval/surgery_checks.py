@@ -44,16 +44,19 @@ def intervals(deg: np.ndarray, mask: np.ndarray) -> list[list[float]]:
 
 
 def feasibility(task: str, options: dict | None, muscle_model: str) -> dict:
-    """What the muscles of `task` can hold under the condition of `options` (None: intact): the static reach from
-    hanging (`statics.reach_on_grid`, as the condition report gives it), the angles of the task's test range (the
-    test split's 20-100 deg) at which they cannot hold the arm still, and whether they hold all of it."""
+    """What the muscles of `task` can hold under the condition of `options` (None: intact). 1-DOF tasks: the static
+    reach from hanging (`statics.reach_on_grid`, as the condition report gives it), the angles of the task's test range
+    (the test split's 20-100 deg) at which they cannot hold the arm still, and whether they hold all of it. 3-DOF
+    tasks (`feasibility3`): the poses of the task's test box they cannot hold."""
     from shoulder_bench import statics
     from shoulder_bench.arm import RANGE_DEG, arm_for
-    from shoulder_bench.tasks import TASKS
+    from shoulder_bench.tasks import is_3dof, spec
     from shoulder_bench.trajectory import SPLITS
 
     cond = {k: v for k, v in (options or {}).items() if k in ("condition", *FRACTION_OPTIONS)}
-    law = arm_for(cond.get("condition")).load_law(muscle_model, TASKS[task][0], **cond)  # ld_transfer: its geometry
+    if is_3dof(task):
+        return feasibility3(task, cond, muscle_model)
+    law = arm_for(cond.get("condition")).load_law(muscle_model, spec(task)[0], **cond)  # ld_transfer: its geometry
     deg = np.round(np.arange(0.0, RANGE_DEG[1], 0.1), 1)
     q = np.radians(deg)
     cap, grav = statics.static_capacity(law, q), statics.gravity_torque(q)
@@ -65,9 +68,57 @@ def feasibility(task: str, options: dict | None, muscle_model: str) -> dict:
             "task_range_deg": [lo, hi], "holds_task_range": bool(held[inside].all())}
 
 
+GRID3_DEG = 10.0  # the 3-DOF test box's grid (benchmarks/workspace_3dof.py's)
+
+
+def test_poses(task: str) -> tuple[np.ndarray, list]:
+    """(poses (P, 3) deg, their box [[lo, hi]] per coordinate) of a 3-DOF task's test targets: track_3dof's test
+    box (`trajectory3.SPLITS`) on a GRID3_DEG grid; the scapular-plane task's elevations (the 1-DOF test range, 1 deg
+    steps) in the scapular plane at rotation 0."""
+    import itertools
+
+    from shoulder_bench import trajectory, trajectory3
+    from shoulder_bench.tasks import TASKS_3DOF
+    from shoulder_bench.tasks.track3d import SCAPULAR_PLANE_DEG
+
+    if TASKS_3DOF[task][2].get("workspace") == "scapular_plane":
+        lo, hi = trajectory.SPLITS["test"]["range_deg"]
+        box = [[SCAPULAR_PLANE_DEG] * 2, [lo, hi], [0.0, 0.0]]
+        steps = [np.array([SCAPULAR_PLANE_DEG]), np.arange(lo, hi + 0.5), np.array([0.0])]
+    else:
+        box = [list(r) for r in trajectory3.SPLITS["test"]["range_deg"]]
+        steps = [np.arange(a, b + GRID3_DEG / 2, GRID3_DEG) for a, b in box]
+    return np.array(list(itertools.product(*steps)), dtype=float), box
+
+
+def feasibility3(task: str, cond: dict, muscle_model: str) -> dict:
+    """The poses of a 3-DOF task's test box (`test_poses`) the muscles cannot hold still against gravity under the
+    condition `cond` (static optimisation, `statics_full.Statics.held`)."""
+    from shoulder_bench import conditions
+    from shoulder_bench.statics_full import Statics
+    from shoulder_bench.tasks import spec
+    from shoulder_bench.tasks.track3d import law_for
+
+    factors = conditions.factors(cond.get("condition"), spec(task)[0],
+                                 **{k: cond[k] for k in FRACTION_OPTIONS if k in cond})
+    poses, box = test_poses(task)
+    held, _ = Statics(law_for(muscle_model, factors=factors)).held(poses)
+    return {"task_range_deg": box, "grid_step_deg": GRID3_DEG, "poses": len(poses), "held": int(held.sum()),
+            "not_held_poses_deg": poses[~held].round(1).tolist(), "holds_task_range": bool(held.all())}
+
+
+def statics_label(f: dict) -> str:
+    """A feasibility in a few words (the leaderboard's column): the static reach (1-DOF) or the test-box poses held."""
+    if "poses" in f:
+        return f"{f['held']}/{f['poses']} test-box poses held"
+    return "none" if f["static_reach_deg"] is None else f"{f['static_reach_deg']:.1f} deg"
+
+
 def feasibility_text(f: dict, intact: dict | None = None) -> str:
+    if "poses" in f:
+        return feasibility3_text(f, intact)
     lo, hi = f["task_range_deg"]
-    reach = "none" if f["static_reach_deg"] is None else f"{f['static_reach_deg']:.1f} deg"
+    reach = statics_label(f)
     if f["holds_task_range"]:
         below = [iv for iv in f["not_held_deg"] if iv[1] < lo]
         extra = (f"; it cannot hold {', '.join(f'{a:g}-{b:g}' for a, b in below)} deg, below the range, which the "
@@ -81,6 +132,22 @@ def feasibility_text(f: dict, intact: dict | None = None) -> str:
     if intact is not None and not intact["holds_task_range"]:
         text += (" (nor can the intact one: it cannot hold "
                  + ", ".join(f"{a:g}-{b:g}" for a, b in intact["not_held_in_range_deg"]) + " deg)")
+    return text
+
+
+def feasibility3_text(f: dict, intact: dict | None = None) -> str:
+    box = ", ".join(f"{c} {a:g}" + (f"-{b:g}" if b != a else "")
+                    for c, (a, b) in zip(("plane", "elevation", "rotation"), f["task_range_deg"]))
+    how = (f"{box} deg, {f['grid_step_deg']:g} deg grid; static optimisation, statics_full.Statics.held")
+    if f["holds_task_range"]:
+        return f"the post-op muscles hold the arm still at all {f['poses']} poses of the task's test box ({how})"
+    shown = ", ".join("(" + ", ".join(f"{x:g}" for x in p) + ")" for p in f["not_held_poses_deg"][:6])
+    more = f" and {len(f['not_held_poses_deg']) - 6} more" if len(f["not_held_poses_deg"]) > 6 else ""
+    text = (f"the post-op muscles cannot hold the arm still at {f['poses'] - f['held']} of the {f['poses']} poses of "
+            f"the task's test box ({how}; not held, plane/elevation/rotation deg: {shown}{more}): the post-op "
+            f"shoulder cannot physically follow every test target")
+    if intact is not None and not intact["holds_task_range"]:
+        text += f" (nor can the intact one: it holds {intact['held']}/{intact['poses']})"
     return text
 
 
@@ -147,12 +214,14 @@ def folder_name(options: dict) -> str:
     return ",".join([options["condition"]] + [f"{k}={options[k]}" for k in FRACTION_OPTIONS if k in options])
 
 
-def tables_provenance(muscle_model: str) -> dict:
-    """Which force tables the experiment ran on: their folder, the SHA-256 of their files together, the git commit
-    that last changed them and HEAD, and whether the working tree differs from HEAD there (None outside git)."""
-    from shoulder_bench.arm import TABLE_FOLDER
+def tables_provenance(task: str, muscle_model: str) -> dict:
+    """Which force tables `task` ran on: their folder (the 1-DOF arm's or the full shoulder's), the SHA-256 of their
+    files together, the git commit that last changed them and HEAD, and whether the working tree differs from HEAD
+    there (None outside git)."""
+    from shoulder_bench import arm, full_arm
+    from shoulder_bench.tasks import is_3dof
 
-    folder = Path(TABLE_FOLDER).resolve()
+    folder = Path(full_arm.TABLE_FOLDER if is_3dof(task) else arm.TABLE_FOLDER).resolve()
     files = sorted(folder.glob(f"*_{muscle_model}.npz"))
     digest = hashlib.sha256(b"".join(hashlib.sha256(f.read_bytes()).digest() for f in files)).hexdigest()
     out = {"folder": folder.name, "files": [f.name for f in files], "sha256": digest,

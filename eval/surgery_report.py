@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from shoulder_bench.eval.surgery_checks import statics_label
+
 KINDS = {"preop": "pre-op (intact)", "zero_shot": "zero-shot (post-op)", "finetune": "fine-tuned (post-op)",
          "scratch": "from scratch (post-op)"}
 KIND_COLOURS = {"preop": "tab:blue", "zero_shot": "tab:red", "finetune": "tab:green", "scratch": "tab:gray"}
@@ -65,8 +67,7 @@ def leaderboard_rows(summary: dict) -> list[dict]:
     rows = []
     for r in summary["scenarios"]:
         m, f = r["mean"], r["feasibility"]["post_op"]
-        reach = "none" if f["static_reach_deg"] is None else f"{f['static_reach_deg']:.1f} deg"
-        reach += "" if f["holds_task_range"] else " (cannot hold the task range)"
+        reach = statics_label(f) + ("" if f["holds_task_range"] else " (cannot hold the task range)")
         rows.append({"task": r["task"], "algorithm": r["algo"], "condition": r["condition"],
                      "pre-op agent": ", ".join(r["preop_source"]), "seeds": str(len(r["seeds"])),
                      "pre-op MAE (intact)": _pm(m["preop"]["mae_deg"]),
@@ -80,15 +81,22 @@ def leaderboard_rows(summary: dict) -> list[dict]:
     return rows
 
 
+def tables(summary: dict) -> list[dict]:
+    """The provenance of each table folder the scenarios ran on (a summary written before the 3-DOF tasks held one)."""
+    t = summary["tables"]
+    return [t] if isinstance(t, dict) else list(t)
+
+
 def section_intro(summary: dict) -> str:
     """The "surgery" section's paragraph: what the rows are and which force tables they ran on."""
-    t = summary["tables"]
-    label = (f"force tables {t['folder']} last changed in commit {t['commit'][:10]} (code at {t['head'][:10]})"
-             if t.get("commit") else f"force tables {t['folder']} (SHA-256 {t['sha256'][:12]})")
-    label += " (working tree differs)" if t.get("dirty") else ""
+    labels = []
+    for t in tables(summary):
+        label = (f"force tables {t['folder']} last changed in commit {t['commit'][:10]} (code at {t['head'][:10]})"
+                 if t.get("commit") else f"force tables {t['folder']} (SHA-256 {t['sha256'][:12]})")
+        labels.append(label + (" (working tree differs)" if t.get("dirty") else ""))
     return ("The re-learning experiment (issue 13 §3, `shoulder-bench surgery`; docs/surgery.md): the pre-op agent on "
             "the post-op shoulder zero-shot, fine-tuned, and an agent trained post-op from scratch. MAE in deg on the "
-            f"paper test set (mean ± std over seeds). {summary['definition']}. Run on {label}.")
+            f"task's fixed test set (mean ± std over seeds). {summary['definition']}. Run on {'; '.join(labels)}.")
 
 
 def section(summary: dict) -> str:
@@ -135,6 +143,11 @@ def scenario_markdown(r: dict, figures: dict[str, str]) -> str:
                    + (f"{sc['mae_deg']:.2f} ({sc['accuracy']:.0%}) | "
                       + (f"{srec['frames']:,} frames" if srec["reached"] else "not reached") if sc else "– | –")
                    + " |")
+    coords = [k for k in KINDS if "coordinate_mae_deg" in m.get(k, {})]
+    if coords:
+        out += ["", "Each coordinate's MAE (deg, mean over seeds; the orientation MAE above is not their sum): "
+                + "; ".join(f"{KINDS[k]} " + " / ".join(f"{c} {_pm(v)}" for c, v in m[k]["coordinate_mae_deg"].items())
+                            for k in coords) + "."]
     goal = r["goal"]
     out += ["", f"Goal (issue 13): {RECOVERY_PCT} of the pre-op accuracy within {goal['within_frames']:,.0f} "
                 f"fine-tune frames (10 % of the pre-op training frames): met by {goal['met']} seeds.", ""]
@@ -155,48 +168,69 @@ RECOVERY_PCT = "90 %"
 
 
 def report_markdown(summary: dict, figures: dict[str, dict[str, str]]) -> str:
-    t = summary["tables"]
-    label = (f"force tables `{t['folder']}` ({', '.join(t['files'])}; SHA-256 {t['sha256'][:12]}), last changed in "
-             f"commit {t['commit']}, code at commit {t['head']}" if t.get("commit")
-             else f"force tables `{t['folder']}` (SHA-256 {t['sha256'][:12]})")
-    if t.get("dirty"):
-        label += " — the working tree's tables differ from that commit"
+    labels = []
+    for t in tables(summary):
+        label = (f"force tables `{t['folder']}` ({', '.join(t['files'])}; SHA-256 {t['sha256'][:12]}), last changed "
+                 f"in commit {t['commit']}, code at commit {t['head']}" if t.get("commit")
+                 else f"force tables `{t['folder']}` (SHA-256 {t['sha256'][:12]})")
+        labels.append(label + (" — the working tree's tables differ from that commit" if t.get("dirty") else ""))
     head = ["# Surgery: the pre-op → post-op re-learning experiment", "",
-            f"Run on {label}. {summary['definition']}.", ""]
+            f"Run on {'; '.join(labels)}. {summary['definition']}.", ""]
     body = [scenario_markdown(r, figures[name(r)]) for r in summary["scenarios"]]
     return "\n".join(head + body) + "\n" + section(summary).replace("## surgery", "## Leaderboard section")
 
 
 # --- figures ----------------------------------------------------------------------------------------------------------
+def muscle_colours(muscles) -> list:
+    """One colour per muscle: the 1-DOF tasks' own (`plots.MUSCLE_COLOURS`), tab20 for the full shoulder's 13."""
+    import matplotlib
+
+    from shoulder_bench.eval.plots import MUSCLE_COLOURS
+
+    if len(muscles) <= len(MUSCLE_COLOURS):
+        return [MUSCLE_COLOURS.get(m) for m in muscles]
+    return [matplotlib.colormaps["tab20"](k % 20) for k in range(len(muscles))]
+
+
 def _tracking(r: dict, tr: dict):
+    """Test trajectory 0: target and angle per agent (one panel per coordinate on the 3-DOF tasks), and each agent's
+    activations below."""
     import matplotlib.pyplot as plt
     import matplotlib.ticker
 
-    from shoulder_bench.eval.plots import MUSCLE_COLOURS
     from shoulder_bench.protocol import FRAME_S
 
     kinds = [k for k in KINDS if k in tr]
-    fig = plt.figure(figsize=(3.2 * len(kinds) + 1, 6.4))
-    grid = fig.add_gridspec(2, len(kinds), height_ratios=[3, 2])
-    top = fig.add_subplot(grid[0, :])
-    t = (np.arange(tr["preop"]["angle_deg"].shape[1]) + 1) * FRAME_S
-    top.plot(t, tr["preop"]["target_deg"][0], color="black", lw=1.6, label="target")
-    for k in kinds:
-        top.plot(t, tr[k]["angle_deg"][0], color=KIND_COLOURS[k], lw=1.1, label=KINDS[k],
-                 ls="--" if k == "zero_shot" else "-")
-    top.set(ylabel="abduction (deg)", title=f"{r['task']} · {r['algo'].upper()} · {r['condition']}: test trajectory 0 "
-            f"(seed {r['seeds'][0]['seed']})")
+    angle = tr["preop"]["angle_deg"]
+    coords = ["abduction"] if angle.ndim == 2 else ["plane of elevation", "elevation", "axial rotation"]
+    pick = (lambda x, c: x[0]) if angle.ndim == 2 else (lambda x, c: x[0, :, c])
+    fig = plt.figure(figsize=(3.2 * len(kinds) + 1, 3.6 + 2.4 * len(coords)))
+    grid = fig.add_gridspec(len(coords) + 1, len(kinds), height_ratios=[3 if len(coords) == 1 else 2] * len(coords)
+                            + [2])
+    t = (np.arange(angle.shape[1]) + 1) * FRAME_S
+    top = None
+    for c, label in enumerate(coords):
+        ax = fig.add_subplot(grid[c, :], sharex=top)
+        top = top or ax
+        ax.plot(t, pick(tr["preop"]["target_deg"], c), color="black", lw=1.6, label="target")
+        for k in kinds:
+            ax.plot(t, pick(tr[k]["angle_deg"], c), color=KIND_COLOURS[k], lw=1.1, label=KINDS[k],
+                    ls="--" if k == "zero_shot" else "-")
+        ax.set(ylabel=f"{label} (deg)")
+        ax.grid(alpha=0.3)
+    top.set_title(f"{r['task']} · {r['algo'].upper()} · {r['condition']}: test trajectory 0 (seed "
+                  f"{r['seeds'][0]['seed']})")
     top.legend(fontsize=7, loc="upper right")
-    top.grid(alpha=0.3)
+    colours = muscle_colours(r["muscles"])
     for col, k in enumerate(kinds):
-        ax = fig.add_subplot(grid[1, col], sharex=top)
+        ax = fig.add_subplot(grid[len(coords), col], sharex=top)
         for j, mus in enumerate(r["muscles"]):
-            ax.plot(t, tr[k]["activation"][0, :, j], color=MUSCLE_COLOURS.get(mus), lw=1,
+            ax.plot(t, tr[k]["activation"][0, :, j], color=colours[j], lw=1,
                     label=mus + (" (removed)" if mus in r["removed_muscles"] and k != "preop" else ""))
         ax.set(title=KINDS[k], xlabel="time (s)", ylim=(-0.02, 1.02), ylabel="activation" if col == 0 else None)
         ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(5))
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=6, loc="upper right")
+        ax.legend(fontsize=5 if len(r["muscles"]) > 4 else 6, loc="upper right", ncol=1 + len(r["muscles"]) // 7)
     fig.tight_layout()
     return fig
 
@@ -206,17 +240,24 @@ def _activations(r: dict):
 
     kinds = [k for k in KINDS if k in r["mean"]]
     muscles = r["muscles"]
-    fig, axes = plt.subplots(1, 3, figsize=(14, 3.8), sharey=True)
+    fig, axes = plt.subplots(1, 3, figsize=(14 if len(muscles) <= 4 else 22, 3.8), sharey=True)
     width = 0.8 / len(kinds)
     x = np.arange(len(muscles))
-    parts = (("all", "all frames"), ("early", "arm below 45 deg"), ("late", "at or above 45 deg"))
+    arm = "elevation" if len(r["seeds"][0]["preop"].get("coordinate_mae_deg") or {}) else "arm"
+    parts = (("all", "all frames"), ("early", f"{arm} below 45 deg"), ("late", "at or above 45 deg"))
+    top = 1.1 * max(np.nanmax([[s[k]["shares"][part][m] for m in muscles] for s in r["seeds"] if k in s])
+                    for k in kinds for part, _ in parts)
     for ax, (part, title) in zip(axes, parts):
         for i, k in enumerate(kinds):
             vals = np.array([[s[k]["shares"][part][m] for m in muscles] for s in r["seeds"] if k in s], dtype=float)
             ax.bar(x + (i - (len(kinds) - 1) / 2) * width, np.nanmean(vals, axis=0), width,
                    yerr=np.nanstd(vals, axis=0) if len(vals) > 1 else None, color=KIND_COLOURS[k], label=KINDS[k])
-        ax.set_xticks(x, [m + ("\n(removed)" if m in r["removed_muscles"] else "") for m in muscles])
-        ax.set(title=f"share of summed activation: {title}", ylim=(0, 1))
+        if len(muscles) <= 4:
+            ax.set_xticks(x, [m + ("\n(removed)" if m in r["removed_muscles"] else "") for m in muscles])
+        else:  # the full shoulder: 13 muscles, the shares small
+            ax.set_xticks(x, [m + (" (removed)" if m in r["removed_muscles"] else "") for m in muscles], rotation=40,
+                          ha="right", fontsize=8)
+        ax.set(title=f"share of summed activation: {title}", ylim=(0, 1 if len(muscles) <= 4 else top))
         ax.grid(alpha=0.3, axis="y")
     axes[0].set_ylabel("share")
     axes[0].legend(fontsize=7)

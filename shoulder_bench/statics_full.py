@@ -87,3 +87,10 @@ class Statics:
     def holding(self, pose_deg, start: np.ndarray | None = None) -> tuple[np.ndarray, float]:
         """(activations, largest |residual| N m) that hold `pose_deg` (deg) at rest against gravity."""
         return self.solve(pose_deg, self.gravity(pose_deg), start)
+
+    def held(self, poses_deg) -> tuple[np.ndarray, np.ndarray]:
+        """(whether each of `poses_deg` (P, 3) is held: residual <= FEASIBLE_NM, (P,) bool; the largest holding
+        activation there (P,)): the workspace the muscles can hold against gravity."""
+        rows = [self.holding(p) for p in np.asarray(poses_deg, dtype=float)]
+        return (np.array([r <= FEASIBLE_NM for _, r in rows], dtype=bool),
+                np.array([a.max() for a, _ in rows], dtype=float))

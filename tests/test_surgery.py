@@ -43,7 +43,8 @@ def test_surgery_runs_end_to_end_on_a_tiny_budget(tmp_path, monkeypatch):
         assert set(shares) == {"ssp", "isp", "dmi", "ld"} and sum(shares.values()) == pytest.approx(1.0)
     assert set(r["share_shift_finetune_minus_preop"]) == {"ssp", "isp", "dmi", "ld"}
     assert r["feasibility"]["post_op"]["holds_task_range"] and r["feasibility"]["post_op"]["static_reach_deg"] < 20
-    assert s["tables"]["sha256"] and "accuracy = MAE_pre / MAE" in s["definition"]
+    assert [t["folder"] for t in s["tables"]] == ["muscles_v2"] and s["tables"][0]["sha256"]
+    assert "accuracy = MAE_pre / MAE" in s["definition"]
     # the fine-tune is a run of its own: its identity records the policy it started from
     run = out / "abduction_4m" / "ppo" / "ssp_tear" / "finetune" / "0"
     cfg = json.loads((run / "config.json").read_text())

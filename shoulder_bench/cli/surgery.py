@@ -10,12 +10,12 @@ def add_parser(sub) -> None:
 
     p = sub.add_parser("surgery", help="pre-op agent -> post-op shoulder: zero-shot, fine-tune to 90 %% of its "
                        "accuracy, from scratch, activation shifts (docs/surgery.md)")
-    p.add_argument("--task", nargs="+", required=True, help="task(s), e.g. abduction_4m")
+    p.add_argument("--task", nargs="+", required=True, help="task(s), e.g. abduction_4m or track_3dof")
     p.add_argument("--condition", nargs="+", required=True,
                    help=f"post-op condition(s): {', '.join(CONDITIONS)} (compose with '+')"
                         + (f"; not available yet: {', '.join(NOT_YET)}" if NOT_YET else ""))
     p.add_argument("--algo", choices=ALGOS, default=None,
-                   help="default: the task's (ppo continuous, bdq four-muscle discrete, dqn one-muscle discrete)")
+                   help="default: the task's (ppo continuous, dqn one-muscle discrete, bdq the other discrete)")
     p.add_argument("--seeds", nargs="+", type=int, default=[0])
     src = p.add_mutually_exclusive_group()
     src.add_argument("--pretrained", action="store_true", help="the shipped agent of the task and algorithm is the "
@@ -37,7 +37,8 @@ def add_parser(sub) -> None:
                         "agent's network)")
     p.add_argument("--muscle-model", default=None, help="fem or hill (default: the package default)")
     p.add_argument("--allow-unreachable", action="store_true",
-                   help="run even where the post-op muscles cannot hold part of the task's range (the report says so)")
+                   help="run even where the post-op muscles cannot hold part of the task's range (3-DOF tasks: some "
+                        "poses of its test box); the report says so")
     p.add_argument("--out", type=Path, default=Path("runs/surgery"),
                    help="output folder: run folders, summary.json, report.md, figures/, leaderboard_section.md "
                         "(default: %(default)s)")
