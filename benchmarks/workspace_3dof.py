@@ -18,7 +18,7 @@ import numpy as np
 
 from shoulder_bench import conditions, full_arm, trajectory3
 from shoulder_bench.statics_full import FEASIBLE_NM, Statics
-from shoulder_bench.tasks.track3d import law_for
+from shoulder_bench.tasks.track3d import law_for, pose_for
 
 
 def main() -> None:
@@ -27,7 +27,9 @@ def main() -> None:
     args = p.parse_args()
     for condition in args.condition or [None]:
         print(f"\n== {condition or 'intact'}")
-        workspace(Statics(law_for(factors=conditions.factors(condition, full_arm.MUSCLES))))
+        geometry = conditions.geometry(condition)  # ld_transfer: the rerouted model and tables
+        workspace(Statics(law_for(factors=conditions.factors(condition, full_arm.MUSCLES), geometry=geometry),
+                          pose_for(geometry)))
 
 
 def workspace(st: Statics) -> None:

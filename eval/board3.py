@@ -36,11 +36,12 @@ class TorqueLaw3:
 
     def __init__(self, line_of_action: str = "mjcf", **condition):
         from shoulder_bench import conditions, full_arm
-        from shoulder_bench.tasks.track3d import law_for
+        from shoulder_bench.tasks.track3d import law_for, pose_for
 
+        geometry = conditions.geometry(condition.get("condition"))
         self.law = law_for("fem", line_of_action, conditions.factors(muscles=full_arm.MUSCLES,
-                                                                     **{"condition": None} | condition))
-        self.pose = full_arm.Pose()
+                                                                     **{"condition": None} | condition), geometry)
+        self.pose = pose_for(geometry)
         self.muscles = self.law.muscles
 
     def torque(self, angle, velocity, activation) -> np.ndarray:

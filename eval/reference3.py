@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 import torch
 
-from shoulder_bench import conditions, full_arm, protocol
+from shoulder_bench import conditions, protocol
 from shoulder_bench.statics_full import Statics
 from shoulder_bench.tasks import TASKS_3DOF, check_name
 
@@ -27,15 +27,16 @@ class ReferenceController3:
     def __init__(self, task: str, muscle_model: str = "fem", kp: float = 60.0, kv: float = 14.0,
                  line_of_action: str = "mjcf", condition: str | None = None, tear_fraction: float | None = None,
                  weakness_fraction: float | None = None, **options):
-        from shoulder_bench.tasks.track3d import law_for
+        from shoulder_bench.tasks.track3d import law_for, pose_for
 
         muscles, discrete, _, _ = TASKS_3DOF[check_name(task)]
         if discrete:
             raise ValueError(f"the reference controller acts continuously; use {task.replace('_discrete', '')}")
         # it plans with the arms the muscles act along and the shoulder's condition, as the task simulates them
         factors = conditions.factors(condition, muscles, tear_fraction, weakness_fraction)
-        self.law = law_for(muscle_model, line_of_action, factors)
-        self.pose = full_arm.Pose()
+        geometry = conditions.geometry(condition)  # ld_transfer: the rerouted model and tables
+        self.law = law_for(muscle_model, line_of_action, factors, geometry)
+        self.pose = pose_for(geometry)
         self.statics = Statics(self.law, self.pose)
         self.kp, self.kv = kp, kv
         self.muscle_model = muscle_model

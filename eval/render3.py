@@ -1,7 +1,8 @@
 """`shoulder-bench render --task track_3dof ...`: a headless video of one 3-DOF episode (the full shoulder).
 
 As `eval.render` for the 1-DOF tasks: the episode runs in the task's physics first; a render model (the task model
-`full_arm.MODEL_FILE`, scene included, without actuators, plus the translucent ghost humerus of
+`full_arm.model_file(geometry)`: the condition's, ld_transfer's rerouted latissimus included; scene included, without
+actuators, plus the translucent ghost humerus of
 `render_model.build_render_model`) is then posed at every video frame from the simulated positions (linear between
 0.1 s frames: the scapula and clavicle move with the arm by the rhythm), the ghost where the humerus is at the
 target's coordinates, each muscle coloured by its activation (ld's three bundles by ld's one); kinematics only.
@@ -68,7 +69,7 @@ def render_video3(out: Path, task: str, policy: str | None, trajectory=None, sec
                 break
     t_sim = time.perf_counter() - t0
     scale = colour_scale(max((float(a.max()) for a in acts), default=0.0))
-    model = build_render_model(width, height, multisample, path=full_arm.MODEL_FILE)
+    model = build_render_model(width, height, multisample, path=full_arm.model_file(env.task.geometry))
     data, ghost_data = mujoco.MjData(model), mujoco.MjData(model)
     pose = full_arm.Pose(model)
     hum, mocap = model.body("humerus").id, int(model.body_mocapid[model.body(GHOST).id])

@@ -97,12 +97,13 @@ def feasibility3(task: str, cond: dict, muscle_model: str) -> dict:
     from shoulder_bench import conditions
     from shoulder_bench.statics_full import Statics
     from shoulder_bench.tasks import spec
-    from shoulder_bench.tasks.track3d import law_for
+    from shoulder_bench.tasks.track3d import law_for, pose_for
 
     factors = conditions.factors(cond.get("condition"), spec(task)[0],
                                  **{k: cond[k] for k in FRACTION_OPTIONS if k in cond})
+    geometry = conditions.geometry(cond.get("condition"))  # ld_transfer: the rerouted model and tables
     poses, box = test_poses(task)
-    held, _ = Statics(law_for(muscle_model, factors=factors)).held(poses)
+    held, _ = Statics(law_for(muscle_model, factors=factors, geometry=geometry), pose_for(geometry)).held(poses)
     return {"task_range_deg": box, "grid_step_deg": GRID3_DEG, "poses": len(poses), "held": int(held.sum()),
             "not_held_poses_deg": poses[~held].round(1).tolist(), "holds_task_range": bool(held.all())}
 

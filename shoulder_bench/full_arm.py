@@ -23,6 +23,10 @@ from shoulder_bench.paths import MODELS_DIR
 
 MODEL_FILE = MODELS_DIR / "shoulder_full_task.xml"
 TABLE_FOLDER = MODELS_DIR / "muscles_full"
+# A condition's geometry (`conditions.Condition.geometry`, as `arm.GEOMETRIES` for the 1-DOF arm): its task model and
+# the folder of its rerouted tendons' tables (the other tendons keep TABLE_FOLDER's)
+GEOMETRIES = {"ld_transfer": {"model": MODELS_DIR / "shoulder_full_task_ld_transfer.xml",
+                              "tables": MODELS_DIR / "muscles_full_ld_transfer", "tendons": ("ld1", "ld2", "ld3")}}
 COORDINATES = ("elv_angle", "shoulder_elv", "shoulder_rot")  # plane of elevation, elevation, axial rotation
 COORDINATE_LABELS = {"elv_angle": "plane", "shoulder_elv": "elevation", "shoulder_rot": "rotation"}
 ACTUATORS = {"ssp": ("ssp",), "isp": ("isp",), "dmi": ("dmi",), "ld": ("ld1", "ld2", "ld3"), "dan": ("dan",),
@@ -53,9 +57,17 @@ def angular_distance_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
 
 
-def compile_full(path=MODEL_FILE) -> mujoco.MjModel:
-    """The full shoulder's task model, compiled, couplings hardened (thread-safe, as `model.compile_model`)."""
-    return compile_model(path, prepare=harden_couplings)
+def model_file(geometry: str | None = None):
+    """The full shoulder's task model file of `geometry` (None: intact, MODEL_FILE)."""
+    if geometry is not None and geometry not in GEOMETRIES:
+        raise ValueError(f"unknown geometry {geometry!r}; choose from {sorted(GEOMETRIES)} or None (intact)")
+    return MODEL_FILE if geometry is None else GEOMETRIES[geometry]["model"]
+
+
+def compile_full(geometry: str | None = None) -> mujoco.MjModel:
+    """The full shoulder's task model (of `geometry`, default intact), compiled, couplings hardened (thread-safe, as
+    `model.compile_model`)."""
+    return compile_model(model_file(geometry), prepare=harden_couplings)
 
 
 class Pose:

@@ -115,13 +115,14 @@ class TendonLaw:
 
     @classmethod
     def load(cls, muscle_model: str = "fem", tendons=None, folder: Path | None = None,
-             groups: dict | None = None, line_of_action: str = "mjcf") -> TendonLaw:
+             groups: dict | None = None, line_of_action: str = "mjcf", geometry: str | None = None) -> TendonLaw:
         """The law of `tendons` (default all of the full shoulder's) from `<folder>/<tendon>_<muscle_model>.npz`
-        (default models/muscles_full). line_of_action "band": those of its tendons with a band table
+        (default models/muscles_full); a condition's `geometry` (`full_arm.GEOMETRIES`: ld_transfer) reads its
+        rerouted tendons from its own folder. line_of_action "band": those of its tendons with a band table
         (`band_lines.BAND_TENDONS`, `<folder>/<tendon>_band.npz`) act along the FEM band's line, the others along
         their MJCF paths; "mjcf" (default): all along their MJCF paths."""
         from shoulder_bench.band_lines import BAND_TENDONS, LINES, BandLines
-        from shoulder_bench.full_arm import TENDONS
+        from shoulder_bench.full_arm import GEOMETRIES, TENDONS
 
         if line_of_action not in LINES:
             raise ValueError(f"line_of_action {line_of_action!r}: choose one of {', '.join(LINES)}")
@@ -129,8 +130,9 @@ class TendonLaw:
         check_muscle_model(muscle_model)
         names = tuple(TENDONS if tendons is None else tendons)
         tables = []
+        rerouted = () if geometry is None else GEOMETRIES[geometry]["tendons"]
         for t in names:
-            p = table_path(t, muscle_model, folder)
+            p = table_path(t, muscle_model, GEOMETRIES[geometry]["tables"] if t in rerouted else folder)
             table = TendonTable.load(p)
             if table.muscle != t:
                 raise ValueError(f"muscle table {p} is for {table.muscle!r}, not {t!r}")

@@ -137,10 +137,7 @@ class Track3D(SingleEnv, control.Task):
         self.init = opt.choice("init", init, INITS)
         self.workspace = opt.choice("workspace", workspace, WORKSPACES)
         self.line_of_action = opt.choice("line_of_action", line_of_action, band_lines.LINES)
-        if conditions.geometry(condition) is not None:  # its factors scale the law (law_for); no rerouting here
-            raise ValueError(f"condition {condition!r} reroutes a muscle, which the v2 arm's 1-DOF tasks model (their "
-                             "own model and tables); the full shoulder has no rerouted model yet: use a tear or a "
-                             "weakness here")
+        self.geometry = conditions.geometry(condition)  # ld_transfer: its model and tables (full_arm.GEOMETRIES)
         # sensing, condition, physiology; the generators (SingleEnv)
         self._setup_options(delay_frames, obs_noise_deg, condition, tear_fraction, weakness_fraction,
                             activation_dynamics, fatigue, randomize, random)
@@ -229,16 +226,25 @@ class Track3D(SingleEnv, control.Task):
         return None
 
 
-def law_for(muscle_model: str = "fem", line_of_action: str = "mjcf", factors: dict | None = None) -> TendonLaw:
+def law_for(muscle_model: str = "fem", line_of_action: str = "mjcf", factors: dict | None = None,
+            geometry: str | None = None) -> TendonLaw:
     """The full shoulder's law: its muscles along `line_of_action`, each muscle's tabled force (active and passive)
-    times its factor of a condition (`conditions.factors`; none: intact)."""
-    law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS, line_of_action=line_of_action)
+    times its factor of a condition (`conditions.factors`; none: intact); a condition's `geometry`
+    (`conditions.geometry`: ld_transfer) reads its rerouted tendons' tables (`full_arm.GEOMETRIES`)."""
+    law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS, line_of_action=line_of_action, geometry=geometry)
     return law.scaled(factors) if factors else law
 
 
-def make_physics(muscle_model: str = "fem", line_of_action: str = "mjcf", factors: dict | None = None) -> Physics3:
-    law = law_for(muscle_model, line_of_action, factors)
-    model = full_arm.compile_full()
+def pose_for(geometry: str | None = None) -> full_arm.Pose:
+    """The full shoulder posed on the model of a condition's `geometry` (None: intact): what the law's moment arms
+    and the statics are read on."""
+    return full_arm.Pose(full_arm.compile_full(geometry))
+
+
+def make_physics(muscle_model: str = "fem", line_of_action: str = "mjcf", factors: dict | None = None,
+                 geometry: str | None = None) -> Physics3:
+    law = law_for(muscle_model, line_of_action, factors, geometry)
+    model = full_arm.compile_full(geometry)
     attach_law(model, law)
     install_callbacks()
     physics = Physics3.from_model(wrapper.MjModel(model))
@@ -253,6 +259,6 @@ def make_env(muscles, discrete=False, split="train", seed=None, trajectory=None,
         raise ValueError(f"muscle_model {muscle_model!r}: the full shoulder has FEM tables only ('fem')")
     task = Track3D(muscles, discrete=discrete, split=split, trajectory_=trajectory3.as_trajectory(trajectory),
                    random=seed, **options)
-    return control.Environment(make_physics(muscle_model, task.line_of_action, task.factors), task,
+    return control.Environment(make_physics(muscle_model, task.line_of_action, task.factors, task.geometry), task,
                                time_limit=float("inf"),
                                control_timestep=protocol.FRAME_S)

@@ -46,11 +46,13 @@ class VecEnv3(Lockstep):
         self.muscles, self.discrete, self.n = tuple(muscles), discrete, len(muscles)
         self.num_actions = self.n
         self.cfg = {"task": name, "muscle_model": muscle_model, **options}
-        self.law = law_for(muscle_model, self.task.line_of_action, self.task.factors)  # the task's condition
+        # the task's condition: its factors and its geometry (ld_transfer: its model and tables)
+        self.law = law_for(muscle_model, self.task.line_of_action, self.task.factors, self.task.geometry)
         # MuJoCo's RK4 with the compiled callbacks, one rollout per frame (the law reads each tendon's length);
         # randomize: one model per copy, compiled without the textures (randomization.physics_only_xml)
-        source = {"path": full_arm.MODEL_FILE} if self.task.randomize is None else {
-            "xml": randomization.physics_only_xml(full_arm.MODEL_FILE)}
+        model_file = full_arm.model_file(self.task.geometry)
+        source = {"path": model_file} if self.task.randomize is None else {
+            "xml": randomization.physics_only_xml(model_file)}
         self.sim = BatchSimulator(self.law, self.num_envs, nthread=nthread, prepare=harden_couplings,
                                   engine="mujoco", **source)
         m = self.model = self.sim.model

@@ -1,7 +1,7 @@
 """Shoulder conditions on the 3-DOF tasks (issue 12 §4: the 1-DOF tasks' conditions on the full shoulder): a tear
 or a weakness scales the muscle's tabled force in the law MuJoCo applies (`tasks.track3d.law_for`), the same in the
-single env, the batched env (tests/test_physiology3.py) and the reference controller's plan; ld_transfer (a
-rerouting) is refused."""
+single env, the batched env (tests/test_physiology3.py) and the reference controller's plan (ld_transfer, a
+rerouting: tests/test_ld_transfer3.py)."""
 import mujoco
 import numpy as np
 import pytest
@@ -50,8 +50,6 @@ def test_the_reference_controller_plans_with_the_condition():
 
 
 def test_condition_errors_on_the_3dof_tasks():
-    with pytest.raises(ValueError, match="reroutes a muscle.*no rerouted model yet"):
-        shoulder_bench.load("track_3dof", condition="ld_transfer")
     with pytest.raises(ValueError, match="tear_fraction applies only with ssp_partial_tear"):
         shoulder_bench.make_vec("track_3dof", 2, condition="ssp_tear", tear_fraction=0.3)
     with pytest.raises(ValueError, match="unknown condition .frozen_shoulder.; valid conditions: ssp_tear"):

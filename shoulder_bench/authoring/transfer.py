@@ -34,7 +34,7 @@ from pathlib import Path
 
 import mujoco
 
-from shoulder_bench import arm
+from shoulder_bench import arm, full_arm
 from shoulder_bench.authoring import mobl, statics_v2, tendons
 from shoulder_bench.authoring import mobl_data as D
 
@@ -45,6 +45,8 @@ WRAP, SIDE = "infsp_new_cylinder", "infsp_new_sidesite"  # the infraspinatus's h
 FILENAME = arm.GEOMETRIES[NAME]["model_3dof"].name  # shoulder_v2_ld_transfer.xml
 TASK_FILENAME = arm.GEOMETRIES[NAME]["model"].name  # shoulder_v2_task_ld_transfer.xml
 FOLDER = arm.GEOMETRIES[NAME]["tables"]  # models/muscles_v2_ld_transfer
+FULL_TASK_FILENAME = full_arm.GEOMETRIES[NAME]["model"].name  # shoulder_full_task_ld_transfer.xml
+FULL_FOLDER = full_arm.GEOMETRIES[NAME]["tables"]  # models/muscles_full_ld_transfer
 SLACK_RULE = ("l_ts' = l_ts + L_MT'(0) - L_MT(0): the intact bundle's fibre stretch with the arm at the side "
               "(tasks' 0 deg, coronal, rotation 0, girdle coupled); F0, l_opt, a0 the parent's")
 
@@ -103,12 +105,21 @@ def task_model_xml() -> str:
     return model_xml(locked_plane_deg=arm.TASK_PLANE_DEG, dynamics=True, actuators=True, scene=True)
 
 
+def full_task_model_xml() -> str:
+    """The full shoulder's task model with the transfer (`mobl.full_task_model_xml`'s options): the 3-DOF tasks'
+    `ld_transfer` (full_arm.GEOMETRIES)."""
+    return model_xml(muscles="full", dynamics=True, actuators=True, scene=True, timestep=mobl.FULL_TIMESTEP,
+                     armature=mobl.FULL_ARMATURE)
+
+
 def write_models(models_dir: Path | None = None) -> list[Path]:
-    """Write the transfer's 3-DOF model and tasks' model into `models_dir` (default the package's models)."""
+    """Write the transfer's 3-DOF model, the tasks' model and the full shoulder's task model into `models_dir`
+    (default the package's models)."""
     from shoulder_bench.model import MODELS_DIR
 
     out = []
-    for name, text in ((FILENAME, model_xml()), (TASK_FILENAME, task_model_xml())):
+    for name, text in ((FILENAME, model_xml()), (TASK_FILENAME, task_model_xml()),
+                       (FULL_TASK_FILENAME, full_task_model_xml())):
         path = Path(models_dir or MODELS_DIR) / name
         path.write_text(text)
         out.append(path)

@@ -16,6 +16,9 @@ def _muscle(name: str) -> str:
 
 
 def _build(args) -> int:
+    if args.variant and not args.full:
+        raise SystemExit("shoulder-bench fem build: error: --variant is for --full (the v2 arm's variant tables: "
+                         "python -m shoulder_bench.authoring.fem.v2 --variant ld_transfer)")
     if args.bands:
         return _build_bands(args)
     if args.full:
@@ -49,7 +52,7 @@ def _build_full(args) -> int:
     t0 = time.perf_counter()
     try:
         metas = full.build(coarse=args.coarse, out=args.out, jobs=args.jobs,
-                           tendons_=tuple(args.tendon) if args.tendon else None)
+                           tendons_=tuple(args.tendon) if args.tendon else None, geometry=args.variant)
     except ValueError as exc:
         raise SystemExit(f"shoulder-bench fem build: error: {exc}") from None
     for t, m in metas.items():
@@ -107,7 +110,10 @@ def _verify(args) -> int:
     if args.full:
         from shoulder_bench.authoring.fem.verify_full import verify as verify_full
 
-        return verify_full(folder=args.tables, coarse=args.coarse)
+        try:
+            return verify_full(folder=args.tables, coarse=args.coarse, geometry=args.variant)
+        except ValueError as exc:
+            raise SystemExit(f"shoulder-bench fem verify: error: {exc}") from None
     from shoulder_bench.authoring.fem.verify import verify
 
     return verify(folder=args.tables, out=args.out, figure=not args.no_figure)
@@ -167,6 +173,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     b.add_argument("--bands", action="store_true", help="the footprint sheets' line-of-action tables (taut bands) of "
                    "ssp, isp, tmi, tma, pec1 over the 3-DOF pose grid (models/muscles_full/<t>_band.npz)")
     b.add_argument("--jobs", type=int, default=1, help="with --full: solve this many tendons at once (processes)")
+    b.add_argument("--variant", choices=("ld_transfer",), default=None, help="with --full: a rerouted geometry's "
+                   "tendons (ld_transfer: ld1-3 on models/shoulder_full_task_ld_transfer.xml, re-tensioned, into "
+                   "models/muscles_full_ld_transfer; docs/surgery.md)")
     b.set_defaults(func=_build)
     v = sub.add_parser("verify", help="re-solve held-out points, compare MuJoCo's torque with the FEM's, check "
                        "literature bands, draw the figure; exit status 1 when any check fails")
@@ -177,6 +186,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     v.add_argument("--full", action="store_true", help="the full shoulder's tables (default folder "
                    "models/muscles_full): held-out poses re-solved, MuJoCo vs FEM over the 3-DOF pose grid")
     v.add_argument("--coarse", action="store_true", help="with --full: re-solve on coarse sheets (coarse tables)")
+    v.add_argument("--variant", choices=("ld_transfer",), default=None, help="with --full: a rerouted geometry's "
+                   "tables (ld_transfer: ld1-3 in models/muscles_full_ld_transfer) on its model")
     v.add_argument("--bands", action="store_true", help="the band tables (default folder models/muscles_full): the "
                    "taut bands re-solved at held-out poses against the tables")
     v.add_argument("--tendon", action="append", help="with --bands: only this tendon (repeatable)")

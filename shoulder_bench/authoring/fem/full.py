@@ -54,15 +54,26 @@ PROVENANCE = ("MoBL-ARMS parent (models/reference/mobl_arms_parent_muscles.csv, 
               "osim/models/MoBL_ARMS_J.osim; models/reference/README.md)")
 
 
-def specs() -> dict[str, SheetSpec]:
+def specs(geometry: str | None = None) -> dict[str, SheetSpec]:
+    """Each tendon's sheet from the parent's fibre parameters; a geometry's rerouted tendons (`ld_transfer`) with
+    their re-tensioned slack lengths (`transfer.slack_lengths`, docs/surgery.md)."""
+    import dataclasses
+
+    from shoulder_bench.authoring import transfer
+
     parent = tendons.load_parent()
-    return {t: SheetSpec.from_parent(t, parent[mobl_data.FULL_MUSCLES[t]]) for t in full_arm.TENDONS}
+    params = {t: parent[mobl_data.FULL_MUSCLES[t]] for t in full_arm.TENDONS}
+    if geometry is not None:
+        slack = transfer.slack_lengths()
+        params |= {t: dataclasses.replace(params[t], l_ts=slack[t]) for t in full_arm.GEOMETRIES[geometry]["tendons"]}
+    return {t: SheetSpec.from_parent(t, p) for t, p in params.items()}
 
 
-def length_grids(pose_deg: np.ndarray | None = None) -> dict[str, np.ndarray]:
-    """Each tendon's uniform length grid (m, LENGTH_POINTS knots) over its L_MT on the pose space."""
+def length_grids(pose_deg: np.ndarray | None = None, geometry: str | None = None) -> dict[str, np.ndarray]:
+    """Each tendon's uniform length grid (m, LENGTH_POINTS knots) over its L_MT on the pose space (of the model of
+    `geometry`, default intact)."""
     poses = full_arm.pose_grid() if pose_deg is None else pose_deg
-    L, _ = full_arm.Pose().tendon_geometry(poses)
+    L, _ = full_arm.Pose(full_arm.compile_full(geometry)).tendon_geometry(poses)
     out = {}
     for k, t in enumerate(full_arm.TENDONS):
         lo, hi = float(L[:, k].min()), float(L[:, k].max())
@@ -102,29 +113,33 @@ def _solve_one(job) -> tuple[str, dict, float]:
 
 
 def build(coarse: bool = False, out: Path | None = None, quiet: bool = False, jobs: int = 1,
-          tendons_: tuple[str, ...] | None = None, material: Material | None = None) -> dict[str, dict]:
+          tendons_: tuple[str, ...] | None = None, material: Material | None = None,
+          geometry: str | None = None) -> dict[str, dict]:
     """Build (or reuse) each tendon's table in `out` (default models/muscles_full); `jobs` processes solve tendons
     in parallel. Returns {tendon: meta + cached}. --coarse needs --out (coarse tables never replace the shipped
-    ones)."""
-    names = full_arm.TENDONS if tendons_ is None else tuple(tendons_)
-    unknown = [t for t in names if t not in full_arm.TENDONS]
+    ones). `geometry` (`full_arm.GEOMETRIES`: ld_transfer): its rerouted tendons on its model, with their
+    re-tensioned slack lengths, into its folder (default models/muscles_full_ld_transfer)."""
+    valid = full_arm.TENDONS if geometry is None else full_arm.GEOMETRIES[geometry]["tendons"]
+    names = valid if tendons_ is None else tuple(tendons_)
+    unknown = [t for t in names if t not in valid]
     if unknown:
-        raise ValueError(f"unknown tendon(s) {unknown}; choose from {', '.join(full_arm.TENDONS)}")
-    with locked_folder(out, coarse, jobs, "full tables") as folder:
-        return _build(folder, coarse, quiet, jobs, names, material)
+        raise ValueError(f"unknown tendon(s) {unknown}; choose from {', '.join(valid)}"
+                         + (f" (the tendons {geometry} reroutes)" if geometry else ""))
+    default = full_arm.TABLE_FOLDER if geometry is None else full_arm.GEOMETRIES[geometry]["tables"]
+    with locked_folder(out, coarse, jobs, "full tables", default) as folder:
+        return _build(folder, coarse, quiet, jobs, names, material, geometry)
 
 
 @contextlib.contextmanager
-def locked_folder(out: Path | None, coarse: bool, jobs: int, what: str):
-    """The folder a full-shoulder table build writes (`out`, default models/muscles_full), checked before any work
-    (--coarse needs --out: coarse tables never replace the shipped `what`; --jobs >= 1), created, and locked while
-    the build runs: two builds never write one folder."""
+def locked_folder(out: Path | None, coarse: bool, jobs: int, what: str, default: Path = full_arm.TABLE_FOLDER):
+    """The folder a full-shoulder table build writes (`out`, default `default`), checked before any work (--coarse
+    needs --out: coarse tables never replace the shipped `what`; --jobs >= 1), created, and locked while the build
+    runs: two builds never write one folder."""
     if coarse and out is None:
-        raise ValueError(f"--coarse without --out would replace the {what} in {full_arm.TABLE_FOLDER}; "
-                         "give --out DIR")
+        raise ValueError(f"--coarse without --out would replace the {what} in {default}; give --out DIR")
     if int(jobs) < 1:
         raise ValueError(f"--jobs must be >= 1, got {jobs}")
-    folder = output_folder(out if out is not None else full_arm.TABLE_FOLDER, "--out")
+    folder = output_folder(out if out is not None else default, "--out")
     folder.mkdir(parents=True, exist_ok=True)
     lock = FolderLock(folder, "table folder", "give another --out")
     try:
@@ -133,9 +148,9 @@ def locked_folder(out: Path | None, coarse: bool, jobs: int, what: str):
         lock.release(remove=True)
 
 
-def _build(folder: Path, coarse: bool, quiet: bool, jobs: int, names: tuple, material) -> dict[str, dict]:
+def _build(folder: Path, coarse: bool, quiet: bool, jobs: int, names: tuple, material, geometry=None) -> dict:
     material, settings, res = material or Material(), SETTINGS, ("coarse" if coarse else "full")
-    grids, all_specs = length_grids(), specs()
+    grids, all_specs = length_grids(geometry=geometry), specs(geometry)
     result, todo = {}, []
     for t in names:
         digest = input_hash(all_specs[t], res, grids[t], material, settings)
@@ -151,21 +166,28 @@ def _build(folder: Path, coarse: bool, quiet: bool, jobs: int, names: tuple, mat
         solved = (pool.map if parallel else map)(_solve_one, [(t, all_specs[t], grids[t], res, material, settings)
                                                                 for t, _, _ in todo])
         for (t, digest, path), (_, fem, seconds) in zip(todo, solved):  # map keeps the order
-            meta = _meta(t, all_specs[t], res, digest, material, settings, fem, seconds)
+            meta = _meta(t, all_specs[t], res, digest, material, settings, fem, seconds, geometry)
             _write(path, grids[t], fem, meta)
             result[t] = dict(meta, cached=False)
             bar.update(1)
     return {t: result[t] for t in names}
 
 
-def _meta(t, spec, res, digest, material, settings, fem, seconds) -> dict:
+def _meta(t, spec, res, digest, material, settings, fem, seconds, geometry=None) -> dict:
+    extra = {} if geometry is None else {"geometry": geometry, "tendon_slack_rule": _slack_rule()}
     return {"model": "fem", "source": "fem", "muscle": t, "parent_muscle": mobl_data.FULL_MUSCLES[t],
-            "model_file": "models/shoulder_full_task.xml", "coordinate": "tendon length",
+            "model_file": f"models/{full_arm.model_file(geometry).name}", "coordinate": "tendon length", **extra,
             "law": "v2_sheet: pennated fibre membrane (Blemker fibres, co-rotational background) of axial extent "
                    "L_MT - l_ts in series with a rigid tendon; force = the axial reaction at the insertion edge",
             "pose_space_deg": {c: list(r) for c, r in full_arm.POSE_RANGE_DEG.items()},
             "parameters": PROVENANCE, **solve_meta(t, spec, res, material, settings, fem),
             "code_version": CODE_VERSION, "input_hash": digest, "build_seconds": round(seconds, 2)}
+
+
+def _slack_rule() -> str:
+    from shoulder_bench.authoring.transfer import SLACK_RULE
+
+    return SLACK_RULE
 
 
 def _write(path: Path, lengths: np.ndarray, fem: dict, meta: dict) -> None:

@@ -54,7 +54,7 @@ def peak_torques(law, pose: full_arm.Pose, poses: np.ndarray) -> np.ndarray:
     return peak
 
 
-def held_out(law, pose: full_arm.Pose, coarse: bool = False, tendons=None) -> list[Check]:
+def held_out(law, pose: full_arm.Pose, coarse: bool = False, tendons=None, geometry: str | None = None) -> list[Check]:
     from shoulder_bench.authoring.fem.full import specs
     from shoulder_bench.authoring.fem.material import Material
     from shoulder_bench.authoring.fem.v2 import SETTINGS
@@ -64,7 +64,7 @@ def held_out(law, pose: full_arm.Pose, coarse: bool = False, tendons=None) -> li
     peaks = peak_torques(law, pose, grid)
     poses = held_out_poses()
     L, r = pose.tendon_geometry(poses, law.actuators)
-    all_specs, checks = specs(), []
+    all_specs, checks = specs(geometry), []
     for c, t in enumerate(law.actuators):
         if tendons is not None and t not in tendons:
             continue
@@ -91,7 +91,8 @@ def held_out(law, pose: full_arm.Pose, coarse: bool = False, tendons=None) -> li
     return checks
 
 
-def applied_vs_fem(folder: Path | None = None, line_of_action: str = "mjcf", muscles=None) -> list[Check]:
+def applied_vs_fem(folder: Path | None = None, line_of_action: str = "mjcf", muscles=None,
+                   geometry: str | None = None) -> list[Check]:
     """Section 2: each muscle alone (`muscles`, default all), MuJoCo's applied generalised force against the FEM's at
     every grid pose and level. line_of_action "band": the band tendons (`band_lines.BAND_TENDONS`), each acting along
     its band (`fem verify --bands`; the band tables from `folder`, the force tables from models/muscles_full, as
@@ -101,8 +102,8 @@ def applied_vs_fem(folder: Path | None = None, line_of_action: str = "mjcf", mus
 
     if line_of_action == "mjcf":
         return [c for muscle in muscles or full_arm.ACTUATORS for c in applied_checks(
-            TendonLaw.load("fem", full_arm.ACTUATORS[muscle], folder, groups={muscle: full_arm.ACTUATORS[muscle]}),
-            muscle, full_arm.pose_grid())]
+            TendonLaw.load("fem", full_arm.ACTUATORS[muscle], folder, groups={muscle: full_arm.ACTUATORS[muscle]},
+                           geometry=geometry), muscle, full_arm.pose_grid(), geometry=geometry)]
     checks = []
     for t in muscles or BAND_TENDONS:
         law = TendonLaw.load("fem", (t,))
@@ -113,13 +114,15 @@ def applied_vs_fem(folder: Path | None = None, line_of_action: str = "mjcf", mus
     return checks
 
 
-def applied_checks(law, muscle: str, poses: np.ndarray, arms: np.ndarray | None = None) -> list[Check]:
-    """`law` (one muscle's) attached to the full shoulder: S^T (qfrc_actuator + the passive callback's band forces)
-    at `poses` (P, 3) deg and every level against F(L(q), a) times `arms` (P, tendons, 3), default the MJCF tendons'
-    arms; bound APPLIED_TOL of the muscle's peak |torque| in each coordinate."""
+def applied_checks(law, muscle: str, poses: np.ndarray, arms: np.ndarray | None = None,
+                   geometry: str | None = None) -> list[Check]:
+    """`law` (one muscle's) attached to the full shoulder (the model of `geometry`, default intact): S^T
+    (qfrc_actuator + the passive callback's band forces) at `poses` (P, 3) deg and every level against F(L(q), a)
+    times `arms` (P, tendons, 3), default the MJCF tendons' arms; bound APPLIED_TOL of the muscle's peak |torque| in
+    each coordinate."""
     from shoulder_bench.model import attach_law, install_callbacks
 
-    m = full_arm.compile_full()
+    m = full_arm.compile_full(geometry)
     attach_law(m, law)
     install_callbacks()
     pose, d = full_arm.Pose(m), mujoco.MjData(m)
@@ -153,16 +156,24 @@ def applied_checks(law, muscle: str, poses: np.ndarray, arms: np.ndarray | None 
     return checks
 
 
-def verify(folder: Path | None = None, coarse: bool = False) -> int:
-    """Run both sections and print them; 0 when all pass, 1 otherwise."""
+def verify(folder: Path | None = None, coarse: bool = False, geometry: str | None = None) -> int:
+    """Run both sections and print them; 0 when all pass, 1 otherwise. `geometry` (ld_transfer): its rerouted
+    tendons' tables (in the geometry's folder, `full_arm.GEOMETRIES`) on its model, the muscle they make up alone."""
     from shoulder_bench.tendon_law import TendonLaw
 
-    law = TendonLaw.load("fem", folder=folder, groups=full_arm.ACTUATORS)  # a missing table: an error naming it
-    pose = full_arm.Pose()
+    rerouted = None if geometry is None else full_arm.GEOMETRIES[geometry]["tendons"]
+    if geometry is not None and folder is not None:
+        raise ValueError(f"a variant's tables are read from {full_arm.GEOMETRIES[geometry]['tables']}; leave --tables "
+                         "out with --variant")
+    law = TendonLaw.load("fem", folder=None if geometry else folder, groups=full_arm.ACTUATORS,
+                         geometry=geometry)  # a missing table: an error naming it
+    pose = full_arm.Pose(full_arm.compile_full(geometry))
+    muscles = None if geometry is None else [m for m, ts in full_arm.ACTUATORS.items() if set(ts) & set(rerouted)]
     sections = [
         (f"held-out poses re-solved vs the table (pass: |error| <= {100 * HELD_OUT_TOL:g} % of the tendon's peak "
-         "|torque| in that coordinate)", held_out(law, pose, coarse)),
+         "|torque| in that coordinate)", held_out(law, pose, coarse, rerouted, geometry)),
         (f"MuJoCo's applied generalised force vs the FEM's, every grid pose and level (pass: <= "
-         f"{100 * APPLIED_TOL:g} % of the muscle's peak |torque| in that coordinate)", applied_vs_fem(folder)),
+         f"{100 * APPLIED_TOL:g} % of the muscle's peak |torque| in that coordinate)",
+         applied_vs_fem(None if geometry else folder, muscles=muscles, geometry=geometry)),
     ]
     return report(sections)
