@@ -115,6 +115,7 @@ class LockedPath:
             self.couplings.append((int(dep.qposadr[0]), int(dep.dofadr[0]), m.eq_data[e, :5].copy()))
         # the same as arrays, so that `qpos` evaluates every slaved joint at once (the same arithmetic, element-wise)
         self._slaved = np.array([adr for adr, _, _ in self.couplings], dtype=np.int64)
+        self._slaved_dof = np.array([dof for _, dof, _ in self.couplings], dtype=np.int64)
         self._coef = np.array([c for _, _, c in self.couplings]).reshape(-1, 5).T  # (5, number of couplings)
 
     def qpos(self, elevation_rad) -> np.ndarray:
@@ -127,8 +128,12 @@ class LockedPath:
         return out
 
     def pose(self, elevation_rad: float) -> mujoco.MjData:
+        return self._posed_at(self.qpos(elevation_rad)[0])
+
+    def _posed_at(self, qpos: np.ndarray) -> mujoco.MjData:
+        """`self.d` posed at `qpos` (kinematics and composite inertias)."""
         m, d = self.m, self.d
-        d.qpos[:] = self.qpos(elevation_rad)[0]
+        d.qpos[:] = qpos
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
         return d
@@ -137,14 +142,14 @@ class LockedPath:
         """World z (m, superior) of the humerus COM."""
         return float(self.pose(elevation_rad).xipos[self.hum, 2])
 
-    def slopes(self, elevation_rad: float) -> np.ndarray:
-        """S (nv,): dqvel / d(elevation rate) along the couplings (1 on the elevation, each polycoef's derivative)."""
+    def slopes(self, elevation_rad) -> np.ndarray:
+        """S (nv,): dqvel / d(elevation rate) along the couplings (1 on the elevation, each polycoef's derivative);
+        at elevations (B,): (B, nv)."""
         m = self.m
-        x = elevation_rad - m.qpos0[self.q]
-        s = np.zeros(m.nv)
-        s[self.dof] = 1.0
-        for _, dof, c in self.couplings:
-            s[dof] = polycoef_slope(c, x)
+        x = np.asarray(elevation_rad, dtype=float) - m.qpos0[self.q]
+        s = np.zeros(x.shape + (m.nv,))
+        s[..., self.dof] = 1.0
+        s[..., self._slaved_dof] = polycoef_slope(self._coef, x[..., None])
         return s
 
     def gravity_torque(self, elevation_rad: float) -> float:
@@ -209,9 +214,8 @@ class Arm(LockedPath):
         """`LockedPath.gravity_torque` and `LockedPath.inertia` at every elevation of `grid` (rad), each point posed
         once for both."""
         gravity, inertia = np.empty(len(grid)), np.empty(len(grid))
-        for k, q in enumerate(grid):
-            self.pose(q)
-            s = self.slopes(q)
+        for k, (qpos, s) in enumerate(zip(self.qpos(grid), self.slopes(grid))):  # the whole grid's at once
+            self._posed_at(qpos)
             gravity[k], inertia[k] = self._posed_gravity(s), self._posed_inertia(s)
         return gravity, inertia
 

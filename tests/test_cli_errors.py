@@ -231,3 +231,19 @@ def test_each_cli_module_registers_the_commands_the_lazy_dispatch_expects():
     for command in ("tasks", "eval", "model"):
         assert set(cli.build_parser(command)._subparsers._group_actions[0].choices) == {
             c for m, cs in cli.REGISTERS.items() if command in cs for c in cs}
+
+
+def test_the_program_runs_main_with_fewer_full_collections_and_a_frozen_exit():
+    """`run` (the console script, `python -m shoulder_bench.cli`) is `main` on sys.argv with full collections 10x
+    rarer and the heap frozen when the command returns (cli.run: start-up time); `main` leaves the collector alone."""
+    import subprocess
+    import sys
+
+    script = ("import gc, sys\nfrom shoulder_bench.cli import main, run\nbefore = gc.get_threshold()\n"
+              "assert main(['tasks']) == 0 and gc.get_threshold() == before and gc.get_freeze_count() == 0\n"
+              "sys.argv = ['shoulder-bench', 'tasks']\nassert run() == 0\n"
+              "assert gc.get_threshold() == before[:2] + (100,) and gc.get_freeze_count() > 0\nprint('ok')\n")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert out.returncode == 0 and out.stdout.strip().endswith("ok"), out.stderr[-2000:]
+    out = subprocess.run([sys.executable, "-m", "shoulder_bench.cli", "tasks"], capture_output=True, text=True)
+    assert out.returncode == 0 and "abduction_4m" in out.stdout, out.stderr[-2000:]

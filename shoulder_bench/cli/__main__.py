@@ -1,6 +1,6 @@
 """`python -m shoulder_bench.cli` = `shoulder-bench`."""
 import sys
 
-from shoulder_bench.cli import main
+from shoulder_bench.cli import run
 
-sys.exit(main())
+sys.exit(run())
