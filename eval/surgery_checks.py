@@ -71,7 +71,7 @@ def feasibility(task: str, options: dict | None, muscle_model: str) -> dict:
 GRID3_DEG = 10.0  # the 3-DOF test box's grid (benchmarks/workspace_3dof.py's)
 
 
-def test_poses(task: str) -> tuple[np.ndarray, list]:
+def target_poses(task: str) -> tuple[np.ndarray, list]:
     """(poses (P, 3) deg, their box [[lo, hi]] per coordinate) of a 3-DOF task's test targets: track_3dof's test
     box (`trajectory3.SPLITS`) on a GRID3_DEG grid; the scapular-plane task's elevations (the 1-DOF test range, 1 deg
     steps) in the scapular plane at rotation 0."""
@@ -92,7 +92,7 @@ def test_poses(task: str) -> tuple[np.ndarray, list]:
 
 
 def feasibility3(task: str, cond: dict, muscle_model: str) -> dict:
-    """The poses of a 3-DOF task's test box (`test_poses`) the muscles cannot hold still against gravity under the
+    """The poses of a 3-DOF task's test box (`target_poses`) the muscles cannot hold still against gravity under the
     condition `cond` (static optimisation, `statics_full.Statics.held`)."""
     from shoulder_bench import conditions
     from shoulder_bench.statics_full import Statics
@@ -102,7 +102,7 @@ def feasibility3(task: str, cond: dict, muscle_model: str) -> dict:
     factors = conditions.factors(cond.get("condition"), spec(task)[0],
                                  **{k: cond[k] for k in FRACTION_OPTIONS if k in cond})
     geometry = conditions.geometry(cond.get("condition"))  # ld_transfer: the rerouted model and tables
-    poses, box = test_poses(task)
+    poses, box = target_poses(task)
     held, _ = Statics(law_for(muscle_model, factors=factors, geometry=geometry), pose_for(geometry)).held(poses)
     return {"task_range_deg": box, "grid_step_deg": GRID3_DEG, "poses": len(poses), "held": int(held.sum()),
             "not_held_poses_deg": poses[~held].round(1).tolist(), "holds_task_range": bool(held.all())}

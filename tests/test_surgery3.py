@@ -14,11 +14,11 @@ from shoulder_bench.tasks import TASKS_3DOF
 TINY = {"num_envs": 16, "steps_per_env": 8, "checkpoint_every": 1}  # 128 frames per PPO iteration
 
 
-def test_the_test_poses_are_the_test_box_or_the_scapular_plane():
-    poses, box = surgery_checks.test_poses("track_3dof")
+def test_the_target_poses_are_the_test_box_or_the_scapular_plane():
+    poses, box = surgery_checks.target_poses("track_3dof")
     assert box == [[20.0, 80.0], [20.0, 100.0], [-30.0, 40.0]] and poses.shape == (7 * 9 * 8, 3)
     assert np.allclose(poses.min(0), [20, 20, -30]) and np.allclose(poses.max(0), [80, 100, 40])
-    poses, box = surgery_checks.test_poses("elevate_scapular_plane_12m")
+    poses, box = surgery_checks.target_poses("elevate_scapular_plane_12m")
     assert poses.shape == (81, 3) and np.allclose(poses[:, 0], 30.0) and np.allclose(poses[:, 2], 0.0)
     assert poses[0, 1] == 20.0 and poses[-1, 1] == 100.0
 
