@@ -48,6 +48,7 @@ from shoulder_bench.eval.surgery_checks import (
     preop_budget,
     preop_run_for,
     shipped_agent,
+    table_folders,
     tables_provenance,
 )
 
@@ -333,7 +334,8 @@ def surgery(tasks, conditions, algo=None, seeds=(0,), frames=None, finetune_fram
         summary, tr = run_scenario(sc, out, config, progress)
         results.append(summary)
         traces.append(tr)
-    tables = [tables_provenance(sc["task"], sc["muscle_model"]) for sc in scenarios]
+    tables = [tables_provenance(f, sc["muscle_model"]) for sc in scenarios
+              for f in table_folders(sc["task"], sc["condition"])]
     summary = {"definition": ACCURACY_DEFINITION, "tables": [t for k, t in enumerate(tables) if t not in tables[:k]],
                "scenarios": results}
     paths = surgery_report.write(summary, traces, out)

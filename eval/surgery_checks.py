@@ -215,14 +215,23 @@ def folder_name(options: dict) -> str:
     return ",".join([options["condition"]] + [f"{k}={options[k]}" for k in FRACTION_OPTIONS if k in options])
 
 
-def tables_provenance(task: str, muscle_model: str) -> dict:
-    """Which force tables `task` ran on: their folder (the 1-DOF arm's or the full shoulder's), the SHA-256 of their
-    files together, the git commit that last changed them and HEAD, and whether the working tree differs from HEAD
-    there (None outside git)."""
-    from shoulder_bench import arm, full_arm
+def table_folders(task: str, condition: str | None = None) -> list[Path]:
+    """The force tables' folders `task` runs on under `condition`: the 1-DOF arm's or the full shoulder's, and a
+    rerouting condition's own (ld_transfer's)."""
+    from shoulder_bench import arm, conditions, full_arm
     from shoulder_bench.tasks import is_3dof
 
-    folder = Path(full_arm.TABLE_FOLDER if is_3dof(task) else arm.TABLE_FOLDER).resolve()
+    geometries = full_arm.GEOMETRIES if is_3dof(task) else arm.GEOMETRIES
+    geometry = conditions.geometry(condition)
+    return [full_arm.TABLE_FOLDER if is_3dof(task) else arm.TABLE_FOLDER] + (
+        [] if geometry is None else [geometries[geometry]["tables"]])
+
+
+def tables_provenance(folder: Path, muscle_model: str) -> dict:
+    """Which force tables in `folder` an experiment ran on: the folder, the SHA-256 of their files together, the git
+    commit that last changed them and HEAD, and whether the working tree differs from HEAD there (None outside
+    git)."""
+    folder = Path(folder).resolve()
     files = sorted(folder.glob(f"*_{muscle_model}.npz"))
     digest = hashlib.sha256(b"".join(hashlib.sha256(f.read_bytes()).digest() for f in files)).hexdigest()
     out = {"folder": folder.name, "files": [f.name for f in files], "sha256": digest,

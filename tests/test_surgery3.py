@@ -67,3 +67,13 @@ def test_surgery_on_the_full_shoulder_end_to_end(tmp_path, monkeypatch, capsys):
     assert "Each coordinate's MAE" in report and "muscles_full" in report
     for fig in ("tracking", "activations", "recovery"):
         assert (out / "figures" / f"track_3dof_ppo_posterosuperior_tear_{fig}.png").stat().st_size > 10_000
+
+
+def test_the_provenance_names_a_rerouting_conditions_own_tables():
+    folders = [f.name for f in surgery_checks.table_folders("track_3dof", "posterosuperior_tear+ld_transfer")]
+    assert folders == ["muscles_full", "muscles_full_ld_transfer"]
+    assert [f.name for f in surgery_checks.table_folders("abduction_4m", "ld_transfer")] == [
+        "muscles_v2", "muscles_v2_ld_transfer"]
+    assert [f.name for f in surgery_checks.table_folders("track_3dof", "ssp_tear")] == ["muscles_full"]
+    t = surgery_checks.tables_provenance(surgery_checks.table_folders("track_3dof", "ld_transfer")[1], "fem")
+    assert t["files"] == ["ld1_fem.npz", "ld2_fem.npz", "ld3_fem.npz"] and len(t["sha256"]) == 64
