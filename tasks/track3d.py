@@ -17,7 +17,8 @@ randomize (`shoulder_bench.randomization`, as the 1-DOF tasks': each episode's m
 gear, all of a muscle's tendons by one draw, on the band's line of action too (`native.passive` reads the gear), the
 humerus mass and a load at the elbow, MoBL's humerus frame as the v2 arm's), and a shoulder condition (`condition`,
 `tear_fraction`, `weakness_fraction`: `shoulder_bench.conditions`' tears and weakness scale or remove muscles' tabled
-forces, `law_for`; the reference controller plans with them; ld_transfer, a rerouting, is the v2 arm's only), and
+forces, `law_for`; ld_transfer reroutes ld1-3 on its own model and tables, `full_arm.GEOMETRIES`, `pose_for`; the
+reference controller plans with them), and
 the muscle physiology (`activation_dynamics`, `fatigue`: `shoulder_bench.physiology`, the 1-DOF tasks' per-step
 activation path, `single_env.SingleEnv`).
 
