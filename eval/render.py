@@ -252,13 +252,10 @@ def render_video(out: Path | str, task: str | None = None, policy: str | None = 
         loaded = policy_for(policy)
         task = loaded[2]
     if task is not None and is_3dof(task):  # the full shoulder (eval.render3)
-        if condition is not None:
-            raise ValueError(f"--condition: the 3-DOF video does not show a condition yet; {task} takes one in "
-                             "eval and train (--condition)")
         from shoulder_bench.eval.render3 import render_video3
 
         return render_video3(out, task, policy, trajectory, seconds, width, height, fmt, fps, camera, seed,
-                             progress, multisample, loaded)
+                             progress, multisample, loaded, condition)
     from shoulder_bench import conditions
 
     geometry = conditions.geometry(condition)  # an unknown or clashing condition fails here, before any work

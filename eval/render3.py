@@ -17,27 +17,30 @@ import numpy as np
 
 from shoulder_bench.eval.overlay import Overlay
 from shoulder_bench.eval.render import colour_scale, write_video
-from shoulder_bench.eval.render_model import GHOST, PALE, SATURATED, build_render_model
+from shoulder_bench.eval.render_model import GHOST, IDLE, PALE, SATURATED, build_render_model
 
 
 def render_video3(out: Path, task: str, policy: str | None, trajectory=None, seconds: float | None = None,
                   width: int = 640, height: int = 480, fmt: str = "mp4", fps: int = 30, camera: str = "front",
                   seed: int = 0, progress: bool = False, multisample: bool = False,
-                  loaded: tuple | None = None) -> dict:
+                  loaded: tuple | None = None, condition: str | None = None) -> dict:
     """Render one episode of the 3-DOF `task` to `out` (inputs already checked by `eval.render.render_video`).
     policy: None or "reference" (the 3-DOF reference controller), a policy file/run folder or pretrained:NAME;
     trajectory: an ADL name, a 3-DOF CSV or a `Trajectory3`; default a random test target drawn with `seed`;
-    loaded: `policy_for(policy)` already called by the caller (not loaded again)."""
+    loaded: `policy_for(policy)` already called by the caller (not loaded again); condition: the episode runs post-op
+    (`shoulder_bench.conditions`; the reference controller plans with it), the video shows its geometry (ld_transfer:
+    the rerouted latissimus) and a removed muscle grey."""
     import mujoco
     import torch
 
     import shoulder_bench
-    from shoulder_bench import full_arm, protocol, trajectory3
+    from shoulder_bench import conditions, full_arm, protocol, trajectory3
 
+    post_op = {} if condition is None else {"condition": condition}
     if policy in (None, "reference"):
         from shoulder_bench.eval.reference3 import ReferenceController3
 
-        ctrl, label = ReferenceController3(task), "reference controller"
+        ctrl, label = ReferenceController3(task, **post_op), "reference controller"
     else:
         from shoulder_bench.eval.evaluate import policy_for
 
@@ -45,7 +48,8 @@ def render_video3(out: Path, task: str, policy: str | None, trajectory=None, sec
         label = f"{str(meta.get('algo', 'policy')).upper()} ({policy})"
     if isinstance(trajectory, Path) and str(trajectory) in trajectory3.ADL:  # the CLI passes a Path
         trajectory = str(trajectory)
-    env = shoulder_bench.load(task, split="test", seed=seed, trajectory=trajectory3.as_trajectory(trajectory))
+    env = shoulder_bench.load(task, split="test", seed=seed, trajectory=trajectory3.as_trajectory(trajectory),
+                              **post_op)
     ts = env.reset()
     physics, target, muscles = env.physics, env.task.target, env.task.muscles
     spec = env.action_spec()
@@ -73,9 +77,13 @@ def render_video3(out: Path, task: str, policy: str | None, trajectory=None, sec
     data, ghost_data = mujoco.MjData(model), mujoco.MjData(model)
     pose = full_arm.Pose(model)
     hum, mocap = model.body("humerus").id, int(model.body_mocapid[model.body(GHOST).id])
-    tendons = [(model.tendon(t).id, k) for k, m in enumerate(muscles) for t in full_arm.ACTUATORS[m]]
+    removed = {m for m, f in conditions.factors(condition, muscles).items() if f == 0.0}  # drawn grey (IDLE)
+    tendons = [(model.tendon(t).id, k) for k, m in enumerate(muscles) if m not in removed
+               for t in full_arm.ACTUATORS[m]]
     ten_ids, ten_src = [t for t, _ in tendons], [k for _, k in tendons]
-    overlay = Overlay(width, height, f"{task} · {label}", muscles, scale)
+    model.tendon_rgba[:] = IDLE
+    title = f"{task} · {condition} · {label}" if condition else f"{task} · {label}"
+    overlay = Overlay(width, height, title, muscles, scale)
     n_video = max(1, int(round(seconds * fps)))
     renderer = mujoco.Renderer(model, height=height, width=width)
 

@@ -228,15 +228,33 @@ def test_3dof_co_contraction_is_the_share_against_the_net_torque_vector():
     np.testing.assert_allclose(tau1[full_arm.MUSCLES.index("ssp")], f[0, k] * r[0, k], rtol=1e-12)
 
 
-def test_render_a_3dof_episode(tmp_path):
+def test_render_a_3dof_episode(tmp_path, monkeypatch):
+    import mujoco
+
+    from shoulder_bench.eval import render3
     from shoulder_bench.eval.render import render_video
+    from shoulder_bench.eval.render_model import IDLE
 
     info = render_video(tmp_path / "arm.gif", task="track_3dof", policy="reference", trajectory="lift_to_shelf",
                         seconds=0.5, width=96, height=64, gif=True)
     assert (tmp_path / "arm.gif").stat().st_size > 0 and info["frames"] == 10 and info["task"] == "track_3dof"
     assert info["controller"] == "reference controller" and not info["crashed"]
-    with pytest.raises(ValueError, match="the 3-DOF video does not show a condition yet"):
-        render_video(tmp_path / "x.gif", task="track_3dof", gif=True, condition="ssp_tear", seconds=0.5)
+    # post-op: the rerouted latissimus drawn on its own path, the torn cuff grey
+    seen, build = {}, render3.build_render_model
+    monkeypatch.setattr(render3, "build_render_model", lambda *a, **k: seen.setdefault("model", build(*a, **k)))
+    info = render_video(tmp_path / "post.gif", task="track_3dof", policy="reference", seconds=0.3, width=96,
+                        height=64, gif=True, condition="posterosuperior_tear+ld_transfer")
+    assert (tmp_path / "post.gif").stat().st_size > 0 and not info["crashed"]
+
+    def wraps(m, tendon: str) -> list[str]:
+        t = m.tendon(tendon).id
+        return [m.geom(int(m.wrap_objid[k])).name for k in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t])
+                if m.wrap_type[k] != mujoco.mjtWrap.mjWRAP_SITE]
+
+    m = seen["model"]
+    rerouted, intact = wraps(full_arm.compile_full("ld_transfer"), "ld1"), wraps(full_arm.compile_full(), "ld1")
+    assert wraps(m, "ld1") == rerouted != intact
+    np.testing.assert_allclose(m.tendon_rgba[m.tendon("isp").id], IDLE)  # removed: grey in every frame
 
 
 def test_bench_covers_the_full_shoulder(capsys):
