@@ -80,3 +80,21 @@ def test_the_condition_loads_the_rerouted_model_everywhere():
     ref = ReferenceController3("track_3dof", condition="posterosuperior_tear+ld_transfer")
     assert ref.law.tables[ref.law.actuators.index("ld2")].meta["geometry"] == "ld_transfer"
     np.testing.assert_allclose(ref.pose.tendon_geometry(POSES, LD)[0], L, rtol=0, atol=1e-12)
+
+
+def test_variant_requests_are_refused_before_any_solve(tmp_path):
+    from shoulder_bench.authoring.fem import full
+    from shoulder_bench.cli.fem import main as fem_main
+
+    with pytest.raises(SystemExit, match="--variant is for --full"):
+        fem_main(["build", "--variant", "ld_transfer", "--out", str(tmp_path)])
+    with pytest.raises(SystemExit, match="--variant is for --full"):
+        fem_main(["verify", "--variant", "ld_transfer"])
+    with pytest.raises(SystemExit, match="leave --tables out with --variant"):
+        fem_main(["verify", "--full", "--variant", "ld_transfer", "--tables", str(tmp_path)])
+    with pytest.raises(ValueError, match=r"unknown tendon\(s\) \['ssp'\]; choose from ld1, ld2, ld3 \(the tendons "
+                                         r"ld_transfer reroutes\)"):
+        full.build(out=tmp_path, tendons_=("ssp",), geometry="ld_transfer")
+    with pytest.raises(ValueError, match="--coarse without --out would replace .*muscles_full_ld_transfer"):
+        full.build(coarse=True, geometry="ld_transfer")
+    assert not any(tmp_path.iterdir())

@@ -87,6 +87,9 @@ def _build_bands(args) -> int:
 
 
 def _verify(args) -> int:
+    if args.variant and not args.full:
+        raise SystemExit("shoulder-bench fem verify: error: --variant is for --full (the v2 arm's variant tables: "
+                         "python -m shoulder_bench.authoring.fem.v2 --variant ld_transfer)")
     if args.bands:
         from shoulder_bench.authoring.fem import bands
         from shoulder_bench.authoring.fem.footprint_grid import cells
