@@ -22,8 +22,10 @@ fixes the tendon under the tension it had, so l_ts is set so that each bundle's 
 side (the tasks' 0 deg: coronal plane, rotation 0, girdle coupled) equals the intact bundle's there. With a rigid
 tendon and constant-width pennation that is l_ts' = l_ts + L_MT'(0) - L_MT(0). Not fitted to any target.
 
-`python -m shoulder_bench.authoring.mobl` writes models/shoulder_v2_ld_transfer.xml (3-DOF) and
-models/shoulder_v2_task_ld_transfer.xml (the tasks' locked variant) beside the intact files (`write_models`).
+`python -m shoulder_bench.authoring.mobl` writes models/shoulder_v2_ld_transfer.xml (3-DOF),
+models/shoulder_v2_task_ld_transfer.xml (the tasks' locked variant) and models/shoulder_full_task_ld_transfer.xml (the
+full shoulder's task model, the 3-DOF tasks' ld_transfer) beside the intact files (`write_models`). ld's paths are the
+same in the full shoulder, so are its re-tensioned slack lengths (`fem build --full --variant ld_transfer`).
 """
 from __future__ import annotations
 
@@ -46,7 +48,6 @@ FILENAME = arm.GEOMETRIES[NAME]["model_3dof"].name  # shoulder_v2_ld_transfer.xm
 TASK_FILENAME = arm.GEOMETRIES[NAME]["model"].name  # shoulder_v2_task_ld_transfer.xml
 FOLDER = arm.GEOMETRIES[NAME]["tables"]  # models/muscles_v2_ld_transfer
 FULL_TASK_FILENAME = full_arm.GEOMETRIES[NAME]["model"].name  # shoulder_full_task_ld_transfer.xml
-FULL_FOLDER = full_arm.GEOMETRIES[NAME]["tables"]  # models/muscles_full_ld_transfer
 SLACK_RULE = ("l_ts' = l_ts + L_MT'(0) - L_MT(0): the intact bundle's fibre stretch with the arm at the side "
               "(tasks' 0 deg, coronal, rotation 0, girdle coupled); F0, l_opt, a0 the parent's")
 
