@@ -6,8 +6,8 @@ Static optimisation (`statics_full.Statics.holding`) at every pose of a 10 deg g
 10-130, rotation -40-60 deg; a pose is held when the three equilibrium equations are met within
 statics_full.FEASIBLE_NM. Prints the share held per elevation, and for the train and test boxes of
 `trajectory3.SPLITS` the share held and the largest activation needed (median, max). `--condition C`: the same for
-the post-op shoulder (`shoulder_bench.conditions`, its law `tasks.track3d.law_for`), one after another: whether the
-muscles a tear leaves can still hold the tasks' poses.
+the post-op shoulder (`shoulder_bench.conditions`, its law and model `tasks.track3d.condition_law`), one after
+another: whether the muscles a tear leaves can still hold the tasks' poses.
 """
 from __future__ import annotations
 
@@ -16,9 +16,9 @@ import itertools
 
 import numpy as np
 
-from shoulder_bench import conditions, full_arm, trajectory3
+from shoulder_bench import trajectory3
 from shoulder_bench.statics_full import FEASIBLE_NM, Statics
-from shoulder_bench.tasks.track3d import law_for, pose_for
+from shoulder_bench.tasks.track3d import condition_law
 
 
 def main() -> None:
@@ -27,9 +27,7 @@ def main() -> None:
     args = p.parse_args()
     for condition in args.condition or [None]:
         print(f"\n== {condition or 'intact'}")
-        geometry = conditions.geometry(condition)  # ld_transfer: the rerouted model and tables
-        workspace(Statics(law_for(factors=conditions.factors(condition, full_arm.MUSCLES), geometry=geometry),
-                          pose_for(geometry)))
+        workspace(Statics(*condition_law(condition)))  # ld_transfer: the rerouted model and tables too
 
 
 def workspace(st: Statics) -> None:

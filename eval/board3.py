@@ -32,16 +32,12 @@ class TorqueLaw3:
     """The full shoulder's isometric muscle torques for `measures.co_contraction`: torque(angles rad (F, 3), velocity,
     activation (F, muscles)) -> (F, muscles, 3) N m about plane, elevation, rotation (the tasks' FEM tables through
     the tendon moment arms, `full_arm.Pose.tendon_geometry`; a muscle's the sum over its tendons); the law of a task
-    with `line_of_action` and a shoulder condition (`tasks.track3d.law_for`)."""
+    with `line_of_action` and a shoulder condition (`tasks.track3d.condition_law`)."""
 
     def __init__(self, line_of_action: str = "mjcf", **condition):
-        from shoulder_bench import conditions, full_arm
-        from shoulder_bench.tasks.track3d import law_for, pose_for
+        from shoulder_bench.tasks.track3d import condition_law
 
-        geometry = conditions.geometry(condition.get("condition"))
-        self.law = law_for("fem", line_of_action, conditions.factors(muscles=full_arm.MUSCLES,
-                                                                     **{"condition": None} | condition), geometry)
-        self.pose = pose_for(geometry)
+        self.law, self.pose = condition_law(**condition, line_of_action=line_of_action)
         self.muscles = self.law.muscles
 
     def torque(self, angle, velocity, activation) -> np.ndarray:

@@ -7,8 +7,8 @@ the reduced inverse dynamics of the MuJoCo model on the couplings,
   tau = S^T M(q) S alpha + S^T qfrc_bias(q, S q')                    (gravity and velocity terms)
 and `statics_full.Statics.distribute` the activations within [a - 0.01, a + 0.01] and [0, 1] of least effort that
 produce tau, the force law at the tendons' current lengths and lengthening rates: the task's law (its line of action
-and shoulder condition, `tasks.track3d.law_for`). As the 1-DOF reference (`eval.reference`): a model-based baseline
-on the board and a check that the model is controllable.
+and shoulder condition, `tasks.track3d.condition_law`). As the 1-DOF reference (`eval.reference`): a model-based
+baseline on the board and a check that the model is controllable.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 import torch
 
-from shoulder_bench import conditions, protocol
+from shoulder_bench import protocol
 from shoulder_bench.statics_full import Statics
 from shoulder_bench.tasks import TASKS_3DOF, check_name
 
@@ -27,16 +27,14 @@ class ReferenceController3:
     def __init__(self, task: str, muscle_model: str = "fem", kp: float = 60.0, kv: float = 14.0,
                  line_of_action: str = "mjcf", condition: str | None = None, tear_fraction: float | None = None,
                  weakness_fraction: float | None = None, **options):
-        from shoulder_bench.tasks.track3d import law_for, pose_for
+        from shoulder_bench.tasks.track3d import condition_law
 
         muscles, discrete, _, _ = TASKS_3DOF[check_name(task)]
         if discrete:
             raise ValueError(f"the reference controller acts continuously; use {task.replace('_discrete', '')}")
         # it plans with the arms the muscles act along and the shoulder's condition, as the task simulates them
-        factors = conditions.factors(condition, muscles, tear_fraction, weakness_fraction)
-        geometry = conditions.geometry(condition)  # ld_transfer: the rerouted model and tables
-        self.law = law_for(muscle_model, line_of_action, factors, geometry)
-        self.pose = pose_for(geometry)
+        self.law, self.pose = condition_law(condition, muscles, tear_fraction, weakness_fraction, muscle_model,
+                                            line_of_action)
         self.statics = Statics(self.law, self.pose)
         self.kp, self.kv = kp, kv
         self.muscle_model = muscle_model

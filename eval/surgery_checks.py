@@ -94,16 +94,12 @@ def target_poses(task: str) -> tuple[np.ndarray, list]:
 def feasibility3(task: str, cond: dict, muscle_model: str) -> dict:
     """The poses of a 3-DOF task's test box (`target_poses`) the muscles cannot hold still against gravity under the
     condition `cond` (static optimisation, `statics_full.Statics.held`)."""
-    from shoulder_bench import conditions
     from shoulder_bench.statics_full import Statics
     from shoulder_bench.tasks import spec
-    from shoulder_bench.tasks.track3d import law_for, pose_for
+    from shoulder_bench.tasks.track3d import condition_law
 
-    factors = conditions.factors(cond.get("condition"), spec(task)[0],
-                                 **{k: cond[k] for k in FRACTION_OPTIONS if k in cond})
-    geometry = conditions.geometry(cond.get("condition"))  # ld_transfer: the rerouted model and tables
     poses, box = target_poses(task)
-    held, _ = Statics(law_for(muscle_model, factors=factors, geometry=geometry), pose_for(geometry)).held(poses)
+    held, _ = Statics(*condition_law(muscles=spec(task)[0], muscle_model=muscle_model, **cond)).held(poses)
     return {"task_range_deg": box, "grid_step_deg": GRID3_DEG, "poses": len(poses), "held": int(held.sum()),
             "not_held_poses_deg": poses[~held].round(1).tolist(), "holds_task_range": bool(held.all())}
 

@@ -242,6 +242,18 @@ def pose_for(geometry: str | None = None) -> full_arm.Pose:
     return full_arm.Pose(full_arm.compile_full(geometry))
 
 
+def condition_law(condition: str | None = None, muscles=full_arm.MUSCLES, tear_fraction: float | None = None,
+                  weakness_fraction: float | None = None, muscle_model: str = "fem",
+                  line_of_action: str = "mjcf") -> tuple[TendonLaw, full_arm.Pose]:
+    """(law, posed model) of the full shoulder under a shoulder `condition` of a task with `muscles`: its factors
+    (`conditions.factors`) scale the law, its geometry (`conditions.geometry`: ld_transfer) gives both the rerouted
+    tables and the rerouted model; what the reference controller, the board's co-contraction and the statics of
+    `surgery` and `benchmarks/workspace_3dof.py` plan with."""
+    geometry = conditions.geometry(condition)
+    factors = conditions.factors(condition, muscles, tear_fraction, weakness_fraction)
+    return law_for(muscle_model, line_of_action, factors, geometry), pose_for(geometry)
+
+
 def make_physics(muscle_model: str = "fem", line_of_action: str = "mjcf", factors: dict | None = None,
                  geometry: str | None = None) -> Physics3:
     law = law_for(muscle_model, line_of_action, factors, geometry)
