@@ -174,7 +174,9 @@ def _build(folder: Path, coarse: bool, quiet: bool, jobs: int, names: tuple, mat
 
 
 def _meta(t, spec, res, digest, material, settings, fem, seconds, geometry=None) -> dict:
-    extra = {} if geometry is None else {"geometry": geometry, "tendon_slack_rule": _slack_rule()}
+    from shoulder_bench.authoring.transfer import SLACK_RULE
+
+    extra = {} if geometry is None else {"geometry": geometry, "tendon_slack_rule": SLACK_RULE}
     return {"model": "fem", "source": "fem", "muscle": t, "parent_muscle": mobl_data.FULL_MUSCLES[t],
             "model_file": f"models/{full_arm.model_file(geometry).name}", "coordinate": "tendon length", **extra,
             "law": "v2_sheet: pennated fibre membrane (Blemker fibres, co-rotational background) of axial extent "
@@ -182,12 +184,6 @@ def _meta(t, spec, res, digest, material, settings, fem, seconds, geometry=None)
             "pose_space_deg": {c: list(r) for c, r in full_arm.POSE_RANGE_DEG.items()},
             "parameters": PROVENANCE, **solve_meta(t, spec, res, material, settings, fem),
             "code_version": CODE_VERSION, "input_hash": digest, "build_seconds": round(seconds, 2)}
-
-
-def _slack_rule() -> str:
-    from shoulder_bench.authoring.transfer import SLACK_RULE
-
-    return SLACK_RULE
 
 
 def _write(path: Path, lengths: np.ndarray, fem: dict, meta: dict) -> None:

@@ -165,7 +165,7 @@ def verify(folder: Path | None = None, coarse: bool = False, geometry: str | Non
     if geometry is not None and folder is not None:
         raise ValueError(f"a variant's tables are read from {full_arm.GEOMETRIES[geometry]['tables']}; leave --tables "
                          "out with --variant")
-    law = TendonLaw.load("fem", folder=None if geometry else folder, groups=full_arm.ACTUATORS,
+    law = TendonLaw.load("fem", folder=folder, groups=full_arm.ACTUATORS,
                          geometry=geometry)  # a missing table: an error naming it
     pose = full_arm.Pose(full_arm.compile_full(geometry))
     muscles = None if geometry is None else [m for m, ts in full_arm.ACTUATORS.items() if set(ts) & set(rerouted)]
@@ -174,6 +174,6 @@ def verify(folder: Path | None = None, coarse: bool = False, geometry: str | Non
          "|torque| in that coordinate)", held_out(law, pose, coarse, rerouted, geometry)),
         (f"MuJoCo's applied generalised force vs the FEM's, every grid pose and level (pass: <= "
          f"{100 * APPLIED_TOL:g} % of the muscle's peak |torque| in that coordinate)",
-         applied_vs_fem(None if geometry else folder, muscles=muscles, geometry=geometry)),
+         applied_vs_fem(folder, muscles=muscles, geometry=geometry)),
     ]
     return report(sections)
