@@ -101,10 +101,10 @@ def segment_angles(points, seg_frames) -> np.ndarray:
     """Rest-to-rest quintic segments through `points` (deg; (K + 1,) or, per coordinate, (K + 1, 3)), segment k
     lasting seg_frames[k] frames: the angles per frame."""
     points = np.asarray(points, dtype=float)
-    pos = [quintic(np.arange(n) * FRAME_S, points[k], points[k + 1], n * FRAME_S)[0] if points.ndim == 1 else
-           np.stack([quintic(np.arange(n) * FRAME_S, points[k, c], points[k + 1, c], n * FRAME_S)[0]
-                     for c in range(points.shape[1])], axis=1) for k, n in enumerate(seg_frames)]
-    return np.concatenate(pos + [points[-1:]])
+    per = points.reshape(len(points), -1)  # (K + 1, coordinates)
+    pos = [np.stack([quintic(np.arange(n) * FRAME_S, per[k, c], per[k + 1, c], n * FRAME_S)[0]
+                     for c in range(per.shape[1])], axis=1) for k, n in enumerate(seg_frames)]
+    return np.concatenate(pos + [per[-1:]]).reshape((-1,) + points.shape[1:])
 
 
 def segmented(points, seg_frames, name: str) -> Trajectory:
