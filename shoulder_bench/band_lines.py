@@ -15,7 +15,8 @@ RK4 stage. `shoulder_bench.native.passive` is the compiled (GIL-free) callback, 
 read F from the same law arithmetic as the actuator callbacks and c from `band_point` below.
 
 Table format (`models/muscles_full/<tendon>_band.npz`, written by `shoulder-bench fem build --bands`):
-  plane_deg (P,), elevation_deg (E,), rotation_deg (R,)   the grid, uniform and ascending
+  plane_deg (P,), elevation_deg (E,), rotation_deg (R,)   the grid, uniform and ascending (the tasks' pose grid or
+                                                           one nesting it, `fem.bands.REFINE`)
   moment_arm_m (P, E, R, 3)                                the band's moment arms about plane, elevation, rotation
   mjcf_moment_arm_m (P, E, R, 3)                           the MJCF tendon's at the same poses
   meta                                                     0-d JSON string (tendon, input_hash, ...)
@@ -84,18 +85,22 @@ class BandLines:
 
     @classmethod
     def load(cls, tendons=BAND_TENDONS, folder: Path | None = None) -> BandLines:
-        """The tables `<folder>/<tendon>_band.npz` (default models/muscles_full), which must share one grid."""
+        """The tables `<folder>/<tendon>_band.npz` (default models/muscles_full), read on the finest of their grids,
+        which must nest the others (same range, each one's poses among its): resampled there linearly along each
+        coordinate in turn, which leaves each table's trilinear reading exactly as it was (a trilinear function
+        restricted to a sub-cell is trilinear)."""
         tendons = tuple(tendons)
         unknown = [t for t in tendons if t not in BAND_TENDONS]
         if unknown:
             raise ValueError(f"no band table for {unknown}; tendons with one: {', '.join(BAND_TENDONS)}")
         tables = [read_table(table_path(t, folder))[0] for t in tendons]
-        axes = [tables[0][k] for k in AXES]
+        axes = [max((a[k] for a in tables), key=len) for k in AXES]
         for t, a in zip(tendons, tables):
-            if any(not np.array_equal(a[k], ax) for k, ax in zip(AXES, axes)):
-                raise ValueError(f"{table_path(t, folder)}: its pose grid differs from {tendons[0]}'s; rebuild the "
-                                 f"tables with `{REBUILD}`")
-        return cls(tendons, axes, np.stack([a["moment_arm_m"] - a["mjcf_moment_arm_m"] for a in tables]))
+            if not all(_nests(ax, a[k]) for k, ax in zip(AXES, axes)):
+                raise ValueError(f"{table_path(t, folder)}: its pose grid is not nested in the finest of "
+                                 f"{', '.join(tendons)}'s; rebuild the tables with `{REBUILD}`")
+        return cls(tendons, axes, np.stack([_resample(a["moment_arm_m"] - a["mjcf_moment_arm_m"], [a[k] for k in AXES],
+                                                      axes) for a in tables]))
 
     def correction(self, poses_deg) -> np.ndarray:
         """(P, n, 3) m: each tendon's band moment arms less its MJCF ones at `poses_deg` (P, 3), trilinear between the
@@ -104,6 +109,19 @@ class BandLines:
         out = np.empty((len(q), len(self.tendons), 3))
         _corrections(self.table, self.grid, self.shape, q, out)
         return out
+
+
+def _nests(fine: np.ndarray, coarse: np.ndarray) -> bool:
+    """Whether the grid values `fine` hold every one of `coarse`'s and span the same range."""
+    return bool(np.isclose(fine[0], coarse[0]) and np.isclose(fine[-1], coarse[-1])
+                and np.isclose(fine[:, None], coarse[None]).any(axis=0).all())
+
+
+def _resample(values: np.ndarray, axes_from, axes_to) -> np.ndarray:
+    """`values` (P, E, R, 3) on the grid `axes_from` read on `axes_to`, linearly along each coordinate in turn."""
+    for k, (a, b) in enumerate(zip(axes_from, axes_to)):
+        values = np.apply_along_axis(lambda v, a=a, b=b: np.interp(b, a, v), k, values)
+    return values
 
 
 @numba.njit(inline="always")

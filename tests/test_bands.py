@@ -16,7 +16,7 @@ CENTRE = [(37.5, 45.0, 7.5)]
 
 @pytest.fixture
 def cell(monkeypatch):
-    monkeypatch.setattr(bands, "axes", lambda: [a.copy() for a in AXES])
+    monkeypatch.setattr(bands, "axes", lambda tendon=None: [a.copy() for a in AXES])
 
 
 def test_a_band_table_is_built_cached_and_verified(cell, tmp_path, capsys):
@@ -66,7 +66,9 @@ def test_held_out_0_checks_only_what_mujoco_applies(capsys):
 
 
 def test_an_unsolved_grid_pose_takes_its_solved_neighbours_correction(cell, monkeypatch, tmp_path):
-    """The neighbours' mean, one step along each coordinate; more than MAX_UNSOLVED of the grid unsolved fails."""
+    """The neighbours' mean, one step along each coordinate; more than MAX_UNSOLVED of the grid unsolved fails. (tmi
+    solved by the ramp alone here: with `least_energy` the other starts would find the pose's equilibrium.)"""
+    monkeypatch.setattr(bands, "LEAST_ENERGY", ())
     field = np.arange(2 * 3 * 2 * 3, dtype=float).reshape(2, 3, 2, 3)
     unsolved = np.zeros((2, 3, 2), bool)
     unsolved[1, 1, 0] = True
@@ -121,3 +123,50 @@ def test_tendons_build_in_parallel_processes(cell, tmp_path):
     for t in ("tmi", "pec1"):
         table = bands.BandTable(bands.table_path(t, tmp_path))
         assert table.tendon == t and np.isfinite(table.arrays["moment_arm_m"]).all()
+
+
+def test_least_energy_takes_tmis_lower_equilibrium_where_the_ramp_lands_on_the_higher():
+    """At (37.5, 45, -22.5) deg tmi's activated sheet has two equilibria (docs/fem.md "What each miss is"): the ramp
+    from rest lands on the one 3 mJ higher (rotation arm -20.70 mm); least_energy finds the other (-21.30 mm)."""
+    from shoulder_bench.authoring.fem.footprint import compare
+
+    p = np.array([[37.5, 45.0, -22.5]])
+    ramp = compare("tmi", p, "full", rest="pose")
+    low = bands.least_energy("tmi", p, "full")
+    assert low["converged"].all() and bands.solve_poses("tmi", p, "full")["fem_m"] == pytest.approx(low["fem_m"])
+    assert ramp["fem_m"][0, 2] == pytest.approx(-20.70e-3, abs=0.05e-3)
+    assert low["fem_m"][0, 2] == pytest.approx(-21.30e-3, abs=0.05e-3)
+    np.testing.assert_allclose(low["mjcf_m"], ramp["mjcf_m"])
+
+
+def test_refined_grids_nest_the_tasks_grid_and_read_as_their_own_tables(tmp_path):
+    """ssp's and pec1's tables are on the tasks' grid with its step halved (REFINE); BandLines reads tables on
+    different grids on the finest, each as its own BandTable reads it; a grid that does not nest is refused."""
+    from shoulder_bench.band_lines import BandLines
+
+    coarse, fine = bands.axes(), bands.axes("ssp")
+    assert [len(a) for a in fine] == [2 * len(a) - 1 for a in coarse]
+    np.testing.assert_array_equal(fine[0][::2], coarse[0])
+    assert len(bands.held_out("pec1")) == np.prod([len(a) - 1 for a in fine]) and len(bands.held_out()) == 588
+    from shoulder_bench.authoring.fem.footprint_grid import cells  # `fem verify --bands --held-out N`'s draw
+
+    drawn = cells(5, refine=bands.REFINE["ssp"])[0]
+    assert (np.abs(drawn[:, None] - bands.held_out("ssp")[None]).max(axis=2).min(axis=1) < 1e-9).all()
+    rng = np.random.default_rng(0)
+    meta = {"tendon": "x", "resolution": "full"}
+    for t, axes in (("tmi", coarse), ("ssp", fine)):
+        shape = tuple(len(a) for a in axes) + (3,)
+        np.savez(tmp_path / f"{t}_band.npz", plane_deg=axes[0], elevation_deg=axes[1], rotation_deg=axes[2],
+                 moment_arm_m=rng.normal(0, 1e-3, shape), mjcf_moment_arm_m=np.zeros(shape),
+                 meta=np.array(json.dumps(dict(meta, tendon=t))))
+    lines = BandLines.load(("tmi", "ssp"), tmp_path)
+    assert lines.table.shape[1:4] == tuple(len(a) for a in fine)
+    q = np.column_stack([rng.uniform(0, 90, 50), rng.uniform(0, 140, 50), rng.uniform(-45, 60, 50)])
+    got = lines.correction(q)
+    for b, t in enumerate(("tmi", "ssp")):
+        np.testing.assert_allclose(got[:, b], bands.BandTable(tmp_path / f"{t}_band.npz").correction(q), atol=1e-15)
+    shifted = [fine[0] + 1.0, fine[1], fine[2]]
+    np.savez(tmp_path / "ssp_band.npz", plane_deg=shifted[0], elevation_deg=shifted[1], rotation_deg=shifted[2],
+             moment_arm_m=np.zeros(shape), mjcf_moment_arm_m=np.zeros(shape), meta=np.array(json.dumps(meta)))
+    with pytest.raises(ValueError, match="not nested"):
+        BandLines.load(("tmi", "ssp"), tmp_path)

@@ -92,20 +92,16 @@ def _verify(args) -> int:
                          "python -m shoulder_bench.authoring.fem.v2 --variant ld_transfer)")
     if args.bands:
         from shoulder_bench.authoring.fem import bands
-        from shoulder_bench.authoring.fem.footprint_grid import cells
-        from shoulder_bench.authoring.fem.verify_full import held_out_poses
 
-        poses = None
-        if args.held_out is not None:  # a subset drawn with a fixed seed: the grid check's cells
-            if args.held_out < 0:
-                raise SystemExit(f"shoulder-bench fem verify: error: --held-out must be >= 0, not {args.held_out}")
-            poses = cells(min(args.held_out, len(held_out_poses())))[0] if args.held_out else ()
+        if args.held_out is not None and args.held_out < 0:
+            raise SystemExit(f"shoulder-bench fem verify: error: --held-out must be >= 0, not {args.held_out}")
         unknown = [t for t in args.tendon or () if t not in bands.FOOTPRINT_TENDONS]
         if unknown:
             raise SystemExit(f"shoulder-bench fem verify: error: no band table for {', '.join(unknown)}; choose from "
                              f"{', '.join(bands.FOOTPRINT_TENDONS)}")
         try:
-            return bands.verify(folder=args.tables, tendons=args.tendon, poses=poses, interpolation=args.interpolation)
+            return bands.verify(folder=args.tables, tendons=args.tendon, interpolation=args.interpolation,
+                                count=args.held_out)
         except ValueError as exc:  # a missing or unreadable table
             raise SystemExit(f"shoulder-bench fem verify: error: {exc}") from None
     if args.held_out is not None or args.tendon or args.interpolation != "linear":
@@ -195,8 +191,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "taut bands re-solved at held-out poses against the tables")
     v.add_argument("--tendon", action="append", help="with --bands: only this tendon (repeatable)")
     v.add_argument("--held-out", type=int, default=None, metavar="N",
-                   help="with --bands: N held-out poses drawn with a fixed seed (default: all 588; 0: none, only "
-                   "the check of what MuJoCo applies)")
+                   help="with --bands: N held-out poses per tendon drawn with a fixed seed (default: all of its "
+                   "table grid's, 588 on the tasks' grid; 0: none, only the check of what MuJoCo applies)")
     v.add_argument("--interpolation", choices=("linear", "cubic"), default="linear",
                    help="with --bands: the tables read trilinearly (the scheme) or by a tricubic spline")
     v.set_defaults(func=_verify)
