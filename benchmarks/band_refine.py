@@ -8,7 +8,8 @@ step): the nodes of the grid twice as fine around p. The eight poses p + (+-h/4,
 finer grid's cells there (its held-out poses), are solved too, and each compared with the trilinear reading of the
 correction (band - MJCF arms) on that finer grid, as `fem verify --bands` scores a table: per coordinate, the torque
 error at a = 1 in % of the tendon's peak |F(L, 1) r_band| over the shipped table's grid. Printed beside it: the error
-of the shipped table (the tasks' grid) at p and at the eight quarter poses. Sheets at the tables' resolution (full).
+of the shipped table (on its own grid: the tasks', or for
+`bands.REFINE` tendons one twice as fine) at p and at the eight quarter poses. Sheets at the tables' resolution (full).
 """
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, BandTable, ful
 from shoulder_bench.authoring.fem.footprint import compare
 from shoulder_bench.tendon_law import TendonLaw
 
-# each tendon's largest error of `fem verify --bands` (all 588 held-out poses, 2026-12-05; docs/fem.md)
+# each tendon's largest error of `fem verify --bands` on the first tables (588 held-out poses; docs/fem.md)
 WORST_DEG = {"ssp": (82.5, 125.0, -37.5), "isp": (82.5, 135.0, -37.5), "tmi": (37.5, 45.0, -22.5),
              "tma": (7.5, 75.0, 52.5), "pec1": (82.5, 135.0, -22.5)}
 

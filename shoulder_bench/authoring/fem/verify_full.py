@@ -152,7 +152,7 @@ def applied_checks(law, muscle: str, poses: np.ndarray, arms: np.ndarray | None 
                        "levels",
                        bool(err.max() <= APPLIED_TOL * peak[k]),
                        f"max |error| {err.max():.2e} N m = {100 * err.max() / peak[k]:.2e} % of its peak "
-                       f"{peak[k]:.2f} N m (at {tuple(int(x) for x in poses[p])} deg, a = {levels[j]:g})"))
+                       f"{peak[k]:.2f} N m (at ({', '.join(f'{x:g}' for x in poses[p])}) deg, a = {levels[j]:g})"))
     return checks
 
 
