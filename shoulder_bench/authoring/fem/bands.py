@@ -299,9 +299,9 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
         if poses is not None:
             return np.asarray(poses, float).reshape(-1, 3)
         every = held_out(t)
-        if count is None or count == 0:
-            return every[:count]
-        return cells(min(count, len(every)), refine=REFINE.get(t, 1))[0]
+        if count is None:
+            return every
+        return cells(min(count, len(every)), refine=REFINE.get(t, 1))[0] if count else every[:0]
 
     pose, failed, checked = full_arm.Pose(), [], False
     print(f"band tables in {folder} ({interpolation}): held-out poses re-solved per tendon; error at a = 1 in % of "
