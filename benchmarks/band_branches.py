@@ -1,0 +1,72 @@
+"""How often does the ramp from rest land on a higher-energy equilibrium of a taut band? (docs/fem.md "Closing three
+misses")
+
+    .venv/bin/python benchmarks/band_branches.py --tendon ssp [--n 150] [--seed 0]   (≈ 5 s a pose for ssp)
+
+At N poses drawn from the tendon's table grid (`bands.grid_poses`, fixed seed) the band is solved as
+`bands.least_energy` solves it (the ramp at p, and Newton at p from the ramp's at p +- PROBE_FRACTION of the tasks'
+step along each coordinate), and for each pose it reports whether a start other than the ramp reached another
+equilibrium of lower energy (lower by more than LOWER_J, its moment arms more than SAME_MM from the ramp's: closer
+ones are the same equilibrium to the solver's tolerance), by how much the arms differ and which starts found it: what
+the least-energy rule would change in a table built by the ramp, and whether fewer starts would do.
+"""
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from shoulder_bench import full_arm
+from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, PROBE_FRACTION, grid_poses
+from shoulder_bench.authoring.fem.footprint import FootprintSheet
+from shoulder_bench.authoring.fem.solver import NoConvergence
+
+LOWER_J = 1e-6  # an equilibrium counts as lower when its energy is below the ramp's by more than this
+SAME_MM = 0.05  # and as another one when some moment arm differs from the ramp's by more than this
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--tendon", choices=FOOTPRINT_TENDONS, required=True)
+    ap.add_argument("--n", type=int, default=150, help="poses drawn from the table's grid")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    poses = grid_poses(args.tendon)
+    poses = poses[np.sort(np.random.default_rng(args.seed).choice(len(poses), min(args.n, len(poses)), False))]
+    probe = np.array([full_arm.POSE_STEP_DEG[c] for c in full_arm.COORDINATES]) * PROBE_FRACTION
+    labels = [f"{s}{c}" for s in "+-" for c in ("plane", "elevation", "rotation")]
+    starts = np.vstack([np.diag(probe), -np.diag(probe)])
+    sheet = FootprintSheet(args.tendon, "full", pose=full_arm.Pose(), rest="pose")
+    lower, shift, found_by = 0, [], {label: 0 for label in labels}
+    for p in poses:
+        try:
+            ramp = sheet.solve_from(p, sheet.solve(p)["nodes"])
+        except NoConvergence:
+            print(f"{tuple(p.tolist())}: the ramp finds no equilibrium; skipped")
+            continue
+        best, by = ramp, []
+        for label, start in zip(labels, p + starts):
+            try:
+                sol = sheet.solve_from(p, sheet.solve(start)["nodes"])
+            except NoConvergence:
+                continue
+            other = np.abs(sol["moment_arm_m"] - ramp["moment_arm_m"]).max() * 1e3 > SAME_MM
+            if other and sol["energy_J"] < ramp["energy_J"] - LOWER_J:
+                if sol["energy_J"] < best["energy_J"] - LOWER_J:
+                    best, by = sol, []
+                if abs(sol["energy_J"] - best["energy_J"]) <= LOWER_J:
+                    by.append(label)
+        if best is not ramp:
+            lower += 1
+            shift.append(np.abs(best["moment_arm_m"] - ramp["moment_arm_m"]).max() * 1e3)
+            for label in by:
+                found_by[label] += 1
+            print(f"{tuple(p.tolist())} deg: {ramp['energy_J'] - best['energy_J']:.2e} J lower, arms moved "
+                  f"{shift[-1]:.3f} mm, found from {', '.join(by)}", flush=True)
+    print(f"{args.tendon}: another equilibrium of lower energy than the ramp's at {lower} of {len(poses)} grid poses"
+          + (f" (arms moved {np.median(shift):.3f} mm median, {max(shift):.3f} mm largest); the least-energy one found "
+             "from: " + ", ".join(f"{k} {v}" for k, v in found_by.items()) if lower else ""))
+
+
+if __name__ == "__main__":
+    main()
