@@ -17,7 +17,7 @@ import argparse
 import numpy as np
 
 from shoulder_bench import full_arm
-from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, PROBE_FRACTION, grid_poses
+from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, grid_poses, probe_offsets
 from shoulder_bench.authoring.fem.footprint import FootprintSheet
 from shoulder_bench.authoring.fem.solver import NoConvergence
 
@@ -33,9 +33,7 @@ def main() -> None:
     args = ap.parse_args()
     poses = grid_poses(args.tendon)
     poses = poses[np.sort(np.random.default_rng(args.seed).choice(len(poses), min(args.n, len(poses)), False))]
-    probe = np.array([full_arm.POSE_STEP_DEG[c] for c in full_arm.COORDINATES]) * PROBE_FRACTION
-    labels = [f"{s}{c}" for s in "+-" for c in ("plane", "elevation", "rotation")]
-    starts = np.vstack([np.diag(probe), -np.diag(probe)])
+    labels = [f"{s}{c}" for s in "+-" for c in ("plane", "elevation", "rotation")]  # probe_offsets' order
     sheet = FootprintSheet(args.tendon, "full", pose=full_arm.Pose(), rest="pose")
     lower, shift, found_by = 0, [], {label: 0 for label in labels}
     for p in poses:
@@ -45,7 +43,7 @@ def main() -> None:
             print(f"{tuple(p.tolist())}: the ramp finds no equilibrium; skipped")
             continue
         best, by = ramp, []
-        for label, start in zip(labels, p + starts):
+        for label, start in zip(labels, p + probe_offsets()):
             try:
                 sol = sheet.solve_from(p, sheet.solve(start)["nodes"])
             except NoConvergence:

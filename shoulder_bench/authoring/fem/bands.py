@@ -48,10 +48,9 @@ from tqdm import tqdm
 
 from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem import rounded
-from shoulder_bench.authoring.fem.footprint import FOOTPRINT_M, SETTINGS, FootprintSheet, compare
+from shoulder_bench.authoring.fem.footprint import FOOTPRINT_M, SETTINGS, compare
 from shoulder_bench.authoring.fem.full import locked_folder
 from shoulder_bench.authoring.fem.material import Material
-from shoulder_bench.authoring.fem.solver import NoConvergence
 from shoulder_bench.band_lines import BAND_TENDONS, read_table, table_path
 from shoulder_bench.muscle import replacing
 
@@ -84,8 +83,10 @@ def grid_poses(tendon: str | None = None) -> np.ndarray:
 
 
 def held_out(tendon: str | None = None) -> np.ndarray:
-    """(P, 3) the poses halfway between the grid's in every coordinate (deg): its cells' centres."""
-    return _mesh([(a[1:] + a[:-1]) / 2 for a in axes(tendon)])
+    """(P, 3) the poses halfway between `tendon`'s table grid's in every coordinate (deg): its cells' centres."""
+    from shoulder_bench.authoring.fem.verify_full import held_out_poses
+
+    return held_out_poses(REFINE.get(tendon, 1))
 
 
 def _mesh(values) -> np.ndarray:
@@ -153,32 +154,19 @@ def solve_poses(tendon: str, poses: np.ndarray, resolution: str, progress=None,
     return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose")
 
 
+def probe_offsets() -> np.ndarray:
+    """(6, 3) deg: the least-energy rule's starts beside the pose, +- PROBE_FRACTION of the tasks' step along each
+    coordinate."""
+    probe = np.diag([full_arm.POSE_STEP_DEG[c] * PROBE_FRACTION for c in full_arm.COORDINATES])
+    return np.vstack([probe, -probe])
+
+
 def least_energy(tendon: str, poses: np.ndarray, resolution: str, progress=None,
                  pose: full_arm.Pose | None = None) -> dict:
     """`compare`'s arrays (rest="pose") with, at each pose p, the least-energy equilibrium among the ramp's at p and
-    those Newton reaches at p from the ramp's at p +- PROBE_FRACTION of the tasks' step along each coordinate
-    (`FootprintSheet.solve_from`; the sheet built at p each time). Unconverged where none converges."""
-    sheet = FootprintSheet(tendon, resolution, pose=pose, rest="pose")
-    probe = np.array([full_arm.POSE_STEP_DEG[c] for c in full_arm.COORDINATES]) * PROBE_FRACTION
-    starts = np.vstack([np.zeros(3), np.diag(probe), -np.diag(probe)])
-    poses = np.atleast_2d(np.asarray(poses, float))
-    out = {"fem_m": np.full((len(poses), 3), np.nan), "mjcf_m": np.zeros((len(poses), 3)),
-           "tension_N": np.full(len(poses), np.nan), "contact_N": np.full(len(poses), np.nan),
-           "energy_J": np.full(len(poses), np.nan), "converged": np.zeros(len(poses), bool)}
-    for k, p in enumerate(poses):
-        out["mjcf_m"][k] = sheet.mjcf_moment_arm(p)
-        for start in p + starts:
-            try:
-                sol = sheet.solve_from(p, sheet.solve(start)["nodes"])
-            except NoConvergence:
-                continue
-            if not out["converged"][k] or sol["energy_J"] < out["energy_J"][k]:
-                out["fem_m"][k], out["tension_N"][k], out["contact_N"][k] = (sol["moment_arm_m"], sol["tension_N"],
-                                                                              sol["contact_N"])
-                out["energy_J"][k], out["converged"][k] = sol["energy_J"], True
-        if progress is not None:
-            progress()
-    return {"tendon": tendon, "poses_deg": poses, "f0_N": sheet.f0, **out}
+    those Newton reaches at p from the ramp's at p + each of `probe_offsets` (`FootprintSheet.solve_least_energy`).
+    Unconverged where none converges."""
+    return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose", offsets_deg=probe_offsets())
 
 
 def _neighbours_mean(field: np.ndarray, unsolved: np.ndarray) -> np.ndarray:

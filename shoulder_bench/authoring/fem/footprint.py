@@ -237,6 +237,22 @@ class FootprintSheet:
         x, _ = self.problem.newton(self.problem.predict(start, 0.0, 0.0), activation)
         return dict(self.reduce(x, activation), energy_J=self.problem.energy(x, activation))
 
+    def solve_least_energy(self, pose_deg, offsets_deg) -> dict:
+        """rest="pose": the least-energy of the ramp's equilibrium at `pose_deg` and those Newton reaches there from
+        the ramp's at `pose_deg` + each of `offsets_deg` (K, 3) (`solve_from`; the sheet built at the pose each time):
+        `solve_from`'s result. NoConvergence where none converges."""
+        p, best = np.asarray(pose_deg, float), None
+        for start in p + np.vstack([np.zeros(3), offsets_deg]):
+            try:
+                sol = self.solve_from(p, self.solve(start)["nodes"])
+            except NoConvergence:
+                continue
+            if best is None or sol["energy_J"] < best["energy_J"]:
+                best = sol
+        if best is None:
+            raise NoConvergence(f"no equilibrium at {p.tolist()} deg from any of {len(offsets_deg) + 1} starts")
+        return best
+
     def _activate(self, x: np.ndarray, activation: float) -> np.ndarray:
         """The relaxed sheet `x` (at the placed pose) activated to `activation` in ACTIVATION_STEPS."""
         a0 = 0.0
@@ -351,13 +367,16 @@ class _Problem(MuscleProblem):
 
 
 def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None = None, progress=None,
-            surface: str = "wrap", pose: full_arm.Pose | None = None, rest: str = "reference") -> dict:
+            surface: str = "wrap", pose: full_arm.Pose | None = None, rest: str = "reference",
+            offsets_deg=None) -> dict:
     """FEM vs MJCF moment arms of `tendon` at `poses_deg` (P, 3): arrays (P, 3) in m (NaN where the sheet found no
     equilibrium: `converged`), the tensions and contact forces (N), the central fibre's stretch (its initial shape's
     length over the reference's), its F0 (N). progress: called after each pose. surface: the sheet's contact surface
     (`SURFACES`). pose: the model posed (default: the task model, compiled anew). rest: the sheet's stress-free
-    state (`RESTS`). A ValueError if the tendon has no sheet (`FootprintSheet`). The footprint commands' loop over
-    poses (the report, the taut band's grid check, the band tables and their verify)."""
+    state (`RESTS`). offsets_deg (K, 3): each pose's least-energy equilibrium from those starts
+    (`FootprintSheet.solve_least_energy`) instead of the ramp's. A ValueError if the tendon has no sheet
+    (`FootprintSheet`). The footprint commands' loop over poses (the report, the taut band's grid check, the band
+    tables and their verify)."""
     sheet = FootprintSheet(tendon, resolution, width_m, pose=pose, surface=surface, rest=rest)
     poses = np.atleast_2d(np.asarray(poses_deg, float))
     out = {"fem_m": np.full((len(poses), 3), np.nan), "mjcf_m": np.zeros((len(poses), 3)),
@@ -368,7 +387,7 @@ def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None =
         sheet._set(p)
         out["stretch"][k] = sheet.central_length() / sheet.reference_length
         try:
-            s = sheet.solve(p)
+            s = sheet.solve(p) if offsets_deg is None else sheet.solve_least_energy(p, offsets_deg)
         except NoConvergence:
             s = None
         if s is not None:
