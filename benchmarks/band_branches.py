@@ -4,11 +4,12 @@ misses")
     .venv/bin/python benchmarks/band_branches.py --tendon ssp [--n 150] [--seed 0]   (≈ 5 s a pose for ssp)
 
 At N poses drawn from the tendon's table grid (`bands.grid_poses`, fixed seed) the band is solved as
-`bands.least_energy` solves it (the ramp at p, and Newton at p from the ramp's at p +- PROBE_FRACTION of the tasks'
-step along each coordinate), and for each pose it reports whether a start other than the ramp reached another
-equilibrium of lower energy (lower by more than LOWER_J, its moment arms more than SAME_MM from the ramp's: closer
-ones are the same equilibrium to the solver's tolerance), by how much the arms differ and which starts found it: what
-the least-energy rule would change in a table built by the ramp, and whether fewer starts would do.
+`bands.least_energy` solves it with all six starts (the ramp at p, and Newton at p from the ramp's at p +-
+PROBE_FRACTION of the tasks' step along each coordinate, `bands.probe_offsets`), and for each pose it reports whether
+a start other than the ramp reached another equilibrium of lower energy (lower by more than LOWER_J, its moment arms
+more than SAME_MM from the ramp's: closer ones are the same equilibrium to the solver's tolerance), by how much the
+arms differ and which starts found it: what the least-energy rule would change in a table built by the ramp, and
+whether fewer starts would do.
 """
 from __future__ import annotations
 

@@ -1,15 +1,17 @@
 """Would a finer pose grid bring a band table within the 2 % held-out bound where it misses? (docs/fem.md "Taut bands")
 
-    .venv/bin/python benchmarks/band_refine.py [--tendon T ...] [--at PLANE ELEVATION ROTATION]   (1-3 min a tendon)
+    .venv/bin/python benchmarks/band_refine.py [--tendon T ...] [--at PLANE ELEVATION ROTATION]
+        [--factors KP KE KR ...] [--starts N] [--branches]                        (seconds to minutes a tendon)
 
 At a held-out pose p of the tasks' grid (a cell centre: by default the pose where `fem verify --bands` found each
-tendon's largest error), the taut band is solved at the 27 poses p + {-h/2, 0, h/2} per coordinate (h the grid's
-step): the nodes of the grid twice as fine around p. The eight poses p + (+-h/4, +-h/4, +-h/4), the centres of the
-finer grid's cells there (its held-out poses), are solved too, and each compared with the trilinear reading of the
-correction (band - MJCF arms) on that finer grid, as `fem verify --bands` scores a table: per coordinate, the torque
-error at a = 1 in % of the tendon's peak |F(L, 1) r_band| over the shipped table's grid. Printed beside it: the error
-of the shipped table (on its own grid: the tasks', or for
-`bands.REFINE` tendons one twice as fine) at p and at the eight quarter poses. Sheets at the tables' resolution (full).
+tendon's largest error on the first tables, WORST_DEG), that grid cell is divided into a finer grid, the tasks' step
+divided by (KP, KE, KR) per coordinate (`--factors`, repeatable; default 2 2 2: the 27 nodes p + {-h/2, 0, h/2}),
+the taut band solved at its nodes and at the centres of its cells (its held-out poses), and each centre compared with
+the trilinear reading of the correction (band - MJCF arms) on that finer grid, as `fem verify --bands` scores a table:
+per coordinate, the torque error at a = 1 in % of the tendon's peak |F(L, 1) r_band| over the shipped table's grid;
+printed, the largest over the centres. First printed: the shipped table's error at p (on its own grid). Each pose
+solved by the ramp from rest, or with `--starts N` as `bands.least_energy` with N of its starts. Sheets at the tables'
+resolution (full). `--branches`: the equilibria at p from the ramp and from each of the six starts instead.
 """
 from __future__ import annotations
 
@@ -19,6 +21,7 @@ import itertools
 import numpy as np
 
 from shoulder_bench import full_arm
+from shoulder_bench.authoring.fem import bands
 from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, BandTable, full_force, peak_torque, table_path
 from shoulder_bench.authoring.fem.footprint import compare
 from shoulder_bench.tendon_law import TendonLaw
@@ -44,32 +47,41 @@ def setup(tendon: str) -> tuple:
     return pose, table, law, peak_torque(table, law, pose)
 
 
-def study(tendon: str, at) -> None:
+def study(tendon: str, at, factors=((2, 2, 2),), starts: int = 0) -> None:
     pose, table, law, peak = setup(tendon)
-    half = np.array([full_arm.POSE_STEP_DEG[c] / 2 for c in full_arm.COORDINATES])
+    step = np.array([full_arm.POSE_STEP_DEG[c] for c in full_arm.COORDINATES])
     p = np.asarray(at, dtype=float)
-    offsets = np.array(list(itertools.product((-1, 0, 1), repeat=3)), dtype=float)  # the finer grid's nodes
-    quarters = np.array(list(itertools.product((-1, 1), repeat=3)), dtype=float)  # its cell centres here
-    poses = np.vstack([p + offsets * half, p + quarters * half / 2])
-    r = compare(tendon, poses, table.meta["resolution"], pose=pose, rest="pose")
-    if not r["converged"].all():
-        print(f"{tendon}: no equilibrium at {poses[~r['converged']].tolist()} deg; skipped")
-        return
-    c = (r["fem_m"] - r["mjcf_m"])[:27].reshape(3, 3, 3, 3)  # the correction on the finer grid's nodes
-    force = full_force(law, pose, tendon, poses)
-    fine, coarse = [], []
-    for q, s in zip(quarters, range(27, 35)):
-        lo = ((q + 1) / 2).astype(int)  # the finer cell: nodes lo..lo+1 along each coordinate (0-2)
-        corners = c[lo[0]:lo[0] + 2, lo[1]:lo[1] + 2, lo[2]:lo[2] + 2]
-        read = trilinear(corners, np.full(3, 0.5))
-        fine.append(force[s] * np.abs(r["mjcf_m"][s] + read - r["fem_m"][s]) / peak * 100)
-        coarse.append(force[s] * np.abs(r["mjcf_m"][s] + table.correction(poses[s])[0] - r["fem_m"][s]) / peak * 100)
-    at_p = force[13] * np.abs(r["mjcf_m"][13] + table.correction(p)[0] - r["fem_m"][13]) / peak * 100
-    fine, coarse = np.max(fine, axis=0), np.max(coarse, axis=0)
-    print(f"{tendon:<5} at {tuple(p.tolist())} deg, error % of peak (plane / elevation / rotation): tasks' grid at p "
-          + " / ".join(f"{x:.2f}" for x in at_p) + "; at the 8 quarter poses: tasks' grid "
-          + " / ".join(f"{x:.2f}" for x in coarse) + ", twice as fine " + " / ".join(f"{x:.2f}" for x in fine),
-          flush=True)
+    lo = p - step / 2  # the tasks' grid cell whose centre p is
+    solved = {}
+
+    def solve(poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # (band arms, MJCF arms), each pose solved once
+        keys = [tuple(q) for q in np.round(poses, 9)]
+        new = sorted(set(k for k in keys if k not in solved))
+        if new:
+            r = compare(tendon, np.array(new), table.meta["resolution"], pose=pose, rest="pose",
+                        offsets_deg=bands.probe_offsets()[:starts] if starts else None)
+            solved.update({k: (f, m) for k, f, m in zip(new, r["fem_m"], r["mjcf_m"])})
+        return np.array([solved[k][0] for k in keys]), np.array([solved[k][1] for k in keys])
+
+    band, mjcf = solve(p[None])
+    at_p = full_force(law, pose, tendon, p[None])[0] * np.abs(mjcf[0] + table.correction(p)[0] - band[0]) / peak * 100
+    print(f"{tendon:<5} at {tuple(p.tolist())} deg ({'the ramp' if not starts else f'least energy, {starts} start(s)'}"
+          "), error % of peak, plane / elevation / rotation: the shipped table at p " + " / ".join(f"{x:.2f}" for x in
+                                                                                           at_p), flush=True)
+    for k in map(np.array, factors):
+        nodes = lo + np.array(list(itertools.product(*[range(n + 1) for n in k]))) * step / k
+        cells = np.array(list(itertools.product(*[range(n) for n in k])))
+        centres = lo + (cells + 0.5) * step / k
+        band_n, mjcf_n = solve(nodes)
+        c = (band_n - mjcf_n).reshape(*(k + 1), 3)  # the correction on the finer grid's nodes in this cell
+        band_c, mjcf_c = solve(centres)
+        if np.isnan(band_n).any() or np.isnan(band_c).any():
+            print(f"  {'x'.join(map(str, k))}: no equilibrium at some pose; skipped")
+            continue
+        read = np.array([trilinear(c[i:i + 2, j:j + 2, m:m + 2], np.full(3, 0.5)) for i, j, m in cells])
+        err = full_force(law, pose, tendon, centres)[:, None] * np.abs(mjcf_c + read - band_c) / peak * 100
+        print(f"  step / {'x'.join(map(str, k))}: largest at its {len(centres)} cell centres "
+              + " / ".join(f"{x:.2f}" for x in err.max(axis=0)), flush=True)
 
 
 def branches(tendon: str, at) -> None:
@@ -108,10 +120,19 @@ def main() -> None:
     ap.add_argument("--tendon", nargs="+", choices=FOOTPRINT_TENDONS, default=list(FOOTPRINT_TENDONS))
     ap.add_argument("--at", nargs=3, type=float, metavar=("PLANE", "ELEVATION", "ROTATION"),
                     help="the held-out pose (deg; default each tendon's worst, WORST_DEG)")
+    ap.add_argument("--factors", nargs=3, type=int, action="append", metavar=("KP", "KE", "KR"),
+                    help="a finer grid in the cell: the tasks' step divided by these (plane, elevation, rotation); "
+                    "repeatable (default 2 2 2)")
+    ap.add_argument("--starts", type=int, default=0, choices=range(7),
+                    help="solve each pose as the least-energy of the ramp's and this many probe starts' equilibria "
+                    "(bands.least_energy; default 0: the ramp alone)")
     ap.add_argument("--branches", action="store_true", help="the equilibria at the pose instead (see above)")
     args = ap.parse_args()
     for t in args.tendon:
-        (branches if args.branches else study)(t, args.at or WORST_DEG[t])
+        if args.branches:
+            branches(t, args.at or WORST_DEG[t])
+        else:
+            study(t, args.at or WORST_DEG[t], [tuple(f) for f in args.factors or [(2, 2, 2)]], args.starts)
 
 
 if __name__ == "__main__":

@@ -24,6 +24,7 @@ Table format (`models/muscles_full/<tendon>_band.npz`, written by `shoulder-benc
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numba
@@ -85,19 +86,20 @@ class BandLines:
 
     @classmethod
     def load(cls, tendons=BAND_TENDONS, folder: Path | None = None) -> BandLines:
-        """The tables `<folder>/<tendon>_band.npz` (default models/muscles_full), read on the finest of their grids,
-        which must nest the others (same range, each one's poses among its): resampled there linearly along each
-        coordinate in turn, which leaves each table's trilinear reading exactly as it was (a trilinear function
-        restricted to a sub-cell is trilinear)."""
+        """The tables `<folder>/<tendon>_band.npz` (default models/muscles_full), read on the coarsest grid that
+        nests all of theirs (per coordinate the same range, its number of steps the least common multiple of theirs):
+        each resampled there linearly along each coordinate in turn, which leaves its trilinear reading exactly as it
+        was (a trilinear function restricted to a sub-cell is trilinear). Tables over different ranges are refused."""
         tendons = tuple(tendons)
         unknown = [t for t in tendons if t not in BAND_TENDONS]
         if unknown:
             raise ValueError(f"no band table for {unknown}; tendons with one: {', '.join(BAND_TENDONS)}")
         tables = [read_table(table_path(t, folder))[0] for t in tendons]
-        axes = [max((a[k] for a in tables), key=len) for k in AXES]
+        axes = [np.linspace(tables[0][k][0], tables[0][k][-1], math.lcm(*(len(a[k]) - 1 for a in tables)) + 1)
+                for k in AXES]
         for t, a in zip(tendons, tables):
             if not all(_nests(ax, a[k]) for k, ax in zip(AXES, axes)):
-                raise ValueError(f"{table_path(t, folder)}: its pose grid is not nested in the finest of "
+                raise ValueError(f"{table_path(t, folder)}: its pose grid spans other ranges than "
                                  f"{', '.join(tendons)}'s; rebuild the tables with `{REBUILD}`")
         return cls(tendons, axes, np.stack([_resample(a["moment_arm_m"] - a["mjcf_moment_arm_m"], [a[k] for k in AXES],
                                                       axes) for a in tables]))

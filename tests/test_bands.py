@@ -38,7 +38,8 @@ def test_a_band_table_is_built_cached_and_verified(cell, tmp_path, capsys):
     arrays["moment_arm_m"][..., 2] += 0.001
     np.savez(path, **arrays)
     assert bands.verify(tmp_path, ("tmi",), poses=CENTRE, quiet=True) == 1
-    assert "FAIL" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "FAIL" in out and f"over at {CENTRE[0]} deg" in out  # the poses over, listed
     meta = json.loads(str(np.load(path)["meta"]))
     assert meta["input_hash"] == bands.input_hash("tmi", "coarse", bands.Material())
 
@@ -56,6 +57,10 @@ def test_bad_requests_are_refused_before_any_solve(tmp_path, capsys):
     assert "no band tables" in capsys.readouterr().out
     with pytest.raises(SystemExit, match="must be >= 0"):
         fem_main(["verify", "--bands", "--held-out", "-1"])
+    with pytest.raises(SystemExit, match="must be >= 1"):
+        fem_main(["verify", "--bands", "--jobs", "0"])
+    with pytest.raises(SystemExit, match="go with --bands"):
+        fem_main(["verify", "--jobs", "2"])
 
 
 def test_held_out_0_checks_only_what_mujoco_applies(capsys):
@@ -140,8 +145,9 @@ def test_least_energy_takes_tmis_lower_equilibrium_where_the_ramp_lands_on_the_h
 
 
 def test_refined_grids_nest_the_tasks_grid_and_read_as_their_own_tables(tmp_path):
-    """ssp's and pec1's tables are on the tasks' grid with its step halved (REFINE); BandLines reads tables on
-    different grids on the finest, each as its own BandTable reads it; a grid that does not nest is refused."""
+    """ssp's and pec1's tables are on the tasks' grid with its step halved (REFINE), tma's with its plane and rotation
+    steps divided by 3; BandLines reads tables on different grids on the coarsest that nests them all (steps divided
+    by 6, 2, 6), each as its own BandTable reads it; a grid over another range is refused."""
     from shoulder_bench.band_lines import BandLines
 
     coarse, fine = bands.axes(), bands.axes("ssp")
@@ -150,23 +156,41 @@ def test_refined_grids_nest_the_tasks_grid_and_read_as_their_own_tables(tmp_path
     assert len(bands.held_out("pec1")) == np.prod([len(a) - 1 for a in fine]) and len(bands.held_out()) == 588
     from shoulder_bench.authoring.fem.footprint_grid import cells  # `fem verify --bands --held-out N`'s draw
 
-    drawn = cells(5, refine=bands.REFINE["ssp"])[0]
-    assert (np.abs(drawn[:, None] - bands.held_out("ssp")[None]).max(axis=2).min(axis=1) < 1e-9).all()
+    third = bands.axes("tma")
+    assert [len(a) for a in third] == [3 * len(coarse[0]) - 2, len(coarse[1]), 3 * len(coarse[2]) - 2]
+    assert len(bands.held_out("tma")) == np.prod([len(a) - 1 for a in third])
+    for t in ("ssp", "tma"):
+        drawn = cells(5, refine=bands.refinement(t))[0]
+        assert (np.abs(drawn[:, None] - bands.held_out(t)[None]).max(axis=2).min(axis=1) < 1e-9).all()
     rng = np.random.default_rng(0)
     meta = {"tendon": "x", "resolution": "full"}
-    for t, axes in (("tmi", coarse), ("ssp", fine)):
+    for t, axes in (("tmi", coarse), ("ssp", fine), ("tma", third)):
         shape = tuple(len(a) for a in axes) + (3,)
         np.savez(tmp_path / f"{t}_band.npz", plane_deg=axes[0], elevation_deg=axes[1], rotation_deg=axes[2],
                  moment_arm_m=rng.normal(0, 1e-3, shape), mjcf_moment_arm_m=np.zeros(shape),
                  meta=np.array(json.dumps(dict(meta, tendon=t))))
-    lines = BandLines.load(("tmi", "ssp"), tmp_path)
-    assert lines.table.shape[1:4] == tuple(len(a) for a in fine)
+    lines = BandLines.load(("tmi", "ssp", "tma"), tmp_path)
+    assert lines.table.shape[1:4] == (6 * 6 + 1, 2 * 14 + 1, 6 * 7 + 1)
     q = np.column_stack([rng.uniform(0, 90, 50), rng.uniform(0, 140, 50), rng.uniform(-45, 60, 50)])
     got = lines.correction(q)
-    for b, t in enumerate(("tmi", "ssp")):
+    for b, t in enumerate(("tmi", "ssp", "tma")):
         np.testing.assert_allclose(got[:, b], bands.BandTable(tmp_path / f"{t}_band.npz").correction(q), atol=1e-15)
-    shifted = [fine[0] + 1.0, fine[1], fine[2]]
+    shifted, shape = [fine[0] + 1.0, fine[1], fine[2]], tuple(len(a) for a in fine) + (3,)
     np.savez(tmp_path / "ssp_band.npz", plane_deg=shifted[0], elevation_deg=shifted[1], rotation_deg=shifted[2],
              moment_arm_m=np.zeros(shape), mjcf_moment_arm_m=np.zeros(shape), meta=np.array(json.dumps(meta)))
-    with pytest.raises(ValueError, match="not nested"):
+    with pytest.raises(ValueError, match="other ranges"):
         BandLines.load(("tmi", "ssp"), tmp_path)
+
+
+def test_poses_solved_in_processes_equal_those_solved_in_one(monkeypatch):
+    """`solve_poses(jobs=2)` (the band build's and verify's --jobs) splits the poses into chunks solved in two worker
+    processes and puts them back in order: the same arrays as one process, the progress counted per pose."""
+    monkeypatch.setattr(bands, "CHUNK", 2)
+    poses = bands.held_out()[::97]  # 7 poses: chunks of 2, 2, 2, 1
+    one = bands.solve_poses("pec1", poses, "coarse")
+    counted = []
+    two = bands.solve_poses("pec1", poses, "coarse", progress=counted.append, jobs=2)
+    assert sum(counted) == len(poses) and len(counted) == 4
+    for k in ("fem_m", "mjcf_m", "tension_N", "converged", "stretch"):
+        np.testing.assert_allclose(two[k], one[k], rtol=1e-12, atol=1e-15)
+    np.testing.assert_array_equal(two["poses_deg"], poses)

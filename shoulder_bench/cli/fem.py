@@ -95,17 +95,20 @@ def _verify(args) -> int:
 
         if args.held_out is not None and args.held_out < 0:
             raise SystemExit(f"shoulder-bench fem verify: error: --held-out must be >= 0, not {args.held_out}")
+        if args.jobs < 1:
+            raise SystemExit(f"shoulder-bench fem verify: error: --jobs must be >= 1, not {args.jobs}")
         unknown = [t for t in args.tendon or () if t not in bands.FOOTPRINT_TENDONS]
         if unknown:
             raise SystemExit(f"shoulder-bench fem verify: error: no band table for {', '.join(unknown)}; choose from "
                              f"{', '.join(bands.FOOTPRINT_TENDONS)}")
         try:
             return bands.verify(folder=args.tables, tendons=args.tendon, interpolation=args.interpolation,
-                                count=args.held_out)
+                                count=args.held_out, jobs=args.jobs)
         except ValueError as exc:  # a missing or unreadable table
             raise SystemExit(f"shoulder-bench fem verify: error: {exc}") from None
-    if args.held_out is not None or args.tendon or args.interpolation != "linear":
-        raise SystemExit("shoulder-bench fem verify: error: --tendon, --held-out and --interpolation go with --bands")
+    if args.held_out is not None or args.tendon or args.interpolation != "linear" or args.jobs != 1:
+        raise SystemExit("shoulder-bench fem verify: error: --tendon, --held-out, --interpolation and --jobs go with "
+                         "--bands")
     if args.full:
         from shoulder_bench.authoring.fem.verify_full import verify as verify_full
 
@@ -171,7 +174,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "all)")
     b.add_argument("--bands", action="store_true", help="the footprint sheets' line-of-action tables (taut bands) of "
                    "ssp, isp, tmi, tma, pec1 over the 3-DOF pose grid (models/muscles_full/<t>_band.npz)")
-    b.add_argument("--jobs", type=int, default=1, help="with --full: solve this many tendons at once (processes)")
+    b.add_argument("--jobs", type=int, default=1, help="with --full: solve this many tendons at once (processes); "
+                   "with --bands: this many processes solve each tendon's poses")
     b.add_argument("--variant", choices=("ld_transfer",), default=None, help="with --full: a rerouted geometry's "
                    "tendons (ld_transfer: ld1-3 on models/shoulder_full_task_ld_transfer.xml, re-tensioned, into "
                    "models/muscles_full_ld_transfer; docs/surgery.md)")
@@ -193,6 +197,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     v.add_argument("--held-out", type=int, default=None, metavar="N",
                    help="with --bands: N held-out poses per tendon drawn with a fixed seed (default: all of its "
                    "table grid's, 588 on the tasks' grid; 0: none, only the check of what MuJoCo applies)")
+    v.add_argument("--jobs", type=int, default=1, help="with --bands: this many processes re-solve the held-out "
+                   "poses")
     v.add_argument("--interpolation", choices=("linear", "cubic"), default="linear",
                    help="with --bands: the tables read trilinearly (the scheme) or by a tricubic spline")
     v.set_defaults(func=_verify)

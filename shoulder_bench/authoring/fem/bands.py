@@ -11,8 +11,9 @@ correction to them: the taut band's moment arms (`footprint.FootprintSheet` with
 tendon's real footprint, stress-free in its draped shape at each pose, activated there, its line of action solved
 with contact) less the MJCF arms, tabled on a pose grid and interpolated trilinearly: the tasks' grid
 (`full_arm.pose_grid`: plane every 15 deg, elevation 10, rotation 15; 840 poses) or, for the tendons in REFINE, that
-grid with its step divided (every pose of the tasks' grid is one of it; `band_lines.BandLines` reads all tables on the
-finest, which leaves each one's trilinear reading as it is). What is exploited: that the band's line of action departs
+grid with its step divided, in every coordinate or per coordinate (every pose of the tasks' grid is one of it;
+`band_lines.BandLines` reads all tables on one grid that nests them, which leaves each one's trilinear reading as it
+is). What is exploited: that the band's line of action departs
 smoothly from the MJCF path's (the MJCF arms themselves turn fast near high elevation, 16 % of peak between the
 grid's poses for ssp, and the band's with them: a table of the band's own arms would miss by as much, the
 correction by < 1 %; docs/fem.md). Not exploited here: the activation (the band is solved at a = 1; the line of
@@ -24,7 +25,8 @@ Tendons: those whose footprint sheet is resolved (FOOTPRINT_TENDONS). ssc is lef
 Which equilibrium: the band's activation ramped from rest at the pose (`FootprintSheet.solve`); for the tendons in
 LEAST_ENERGY, whose sheet has more than one equilibrium at some poses (`benchmarks/band_refine.py --branches`), the
 least-energy of that one and those Newton reaches at the pose from the ramp's at the pose +- PROBE_FRACTION of the
-tasks' step along each coordinate (`least_energy`): still the pose's alone, not the way there.
+tasks' step along each coordinate, the first LEAST_ENERGY[t] of those six starts (`least_energy`): still the pose's
+alone, not the way there.
 
 A grid pose where the band finds no equilibrium (tma at plane 90, elevation 140, rotation -45) takes the mean of its
 solved neighbours' correction; such poses are listed in the table (`unsolved`, meta) and at most MAX_UNSOLVED of
@@ -32,15 +34,16 @@ the grid may be.
 
 Caching and resuming: each table carries its input hash (the model file's bytes, the footprint width, the sheet
 resolution, material, solver settings, the grid, CODE_VERSION); a build solves only tendons whose table is missing or
-stale, writes each atomically when done, and holds the folder's lock while it runs.
+stale, writes each atomically when done, and holds the folder's lock while it runs. `jobs` processes solve a
+tendon's poses (and the verify's held-out ones), CHUNK at a time: each pose's equilibrium is its own, so the tables
+do not depend on it.
 """
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -59,22 +62,31 @@ FOOTPRINT_TENDONS = BAND_TENDONS  # the tendons whose footprint sheet is resolve
 # Where the band finds no equilibrium at a grid pose, the correction there is the mean of its solved neighbours'
 # (listed in the table's meta, `unsolved` in its arrays); more than this fraction of the grid unsolved fails the build
 MAX_UNSOLVED = 0.01
-# Each tendon's grid step: the tasks' divided by this (1 if absent). Where the held-out check on the tasks' grid missed
-# by interpolation (`benchmarks/band_refine.py`: ssp and pec1 within the bound at their worst pose on a grid twice as
-# fine; docs/fem.md "What each miss is")
-REFINE = {"ssp": 2, "pec1": 2}
-# Tendons whose band is solved as the least-energy of several equilibria (`least_energy`): tmi, whose sheet (no contact
-# surface) has two at some poses, the ramp from rest landing on the higher (docs/fem.md "What each miss is")
-LEAST_ENERGY = ("tmi",)
+# Each tendon's grid step: the tasks' divided by this (1 if absent), in every coordinate or per coordinate (plane,
+# elevation, rotation). Where the held-out check on the tasks' grid missed by interpolation
+# (`benchmarks/band_refine.py`: ssp and pec1 within the bound at their worst pose on a grid twice as fine; tma's worst
+# cell, whose arms about plane and rotation bend within it, at a third of the step in those two; docs/fem.md "What
+# each miss is", "tma")
+REFINE = {"ssp": 2, "pec1": 2, "tma": (3, 1, 3)}
+# Tendons whose band is solved as the least-energy of several equilibria (`least_energy`), with how many of
+# `probe_offsets`' six starts beside the ramp's: tmi, whose sheet (no contact surface) has two at some poses, the ramp
+# from rest landing on the higher, all six; tma, where any one start found the lower equilibrium at each of the ten
+# poses of a hundred that have one (`benchmarks/band_branches.py`), one (docs/fem.md "What each miss is", "tma")
+LEAST_ENERGY = {"tmi": 6, "tma": 1}
 PROBE_FRACTION = 0.25  # the starts' offsets from the pose, in tasks' grid steps
+
+
+def refinement(tendon: str | None = None) -> tuple[int, int, int]:
+    """`tendon`'s REFINE as (plane, elevation, rotation) divisors of the tasks' step (1, 1, 1 if absent or None)."""
+    k = REFINE.get(tendon, 1)
+    return (k, k, k) if isinstance(k, int) else tuple(k)
 
 
 def axes(tendon: str | None = None) -> list[np.ndarray]:
     """`tendon`'s table grid's values per coordinate (deg): the tasks' pose grid as `full_arm.pose_grid` lays it out
-    (tendon None or not in REFINE), or that grid with its step divided by REFINE[tendon]."""
-    refine = REFINE.get(tendon, 1)
-    return [np.linspace(lo, hi, round((hi - lo) / full_arm.POSE_STEP_DEG[c]) * refine + 1)
-            for c, (lo, hi) in full_arm.POSE_RANGE_DEG.items()]
+    (tendon None or not in REFINE), or that grid with its step divided by `refinement(tendon)`."""
+    return [np.linspace(lo, hi, round((hi - lo) / full_arm.POSE_STEP_DEG[c]) * k + 1)
+            for (c, (lo, hi)), k in zip(full_arm.POSE_RANGE_DEG.items(), refinement(tendon))]
 
 
 def grid_poses(tendon: str | None = None) -> np.ndarray:
@@ -86,7 +98,7 @@ def held_out(tendon: str | None = None) -> np.ndarray:
     """(P, 3) the poses halfway between `tendon`'s table grid's in every coordinate (deg): its cells' centres."""
     from shoulder_bench.authoring.fem.verify_full import held_out_poses
 
-    return held_out_poses(REFINE.get(tendon, 1))
+    return held_out_poses(refinement(tendon))
 
 
 def _mesh(values) -> np.ndarray:
@@ -94,8 +106,11 @@ def _mesh(values) -> np.ndarray:
 
 
 def input_hash(tendon: str, resolution: str, material: Material) -> str:
-    # the rule for LEAST_ENERGY tendons only, so that the other tables' hashes stay what they were
+    # the rule for LEAST_ENERGY tendons only, and its number of starts where fewer than six, so that the tables built
+    # before either was a choice keep their hashes
     rule = {"equilibrium": "least energy", "probe": PROBE_FRACTION} if tendon in LEAST_ENERGY else {}
+    if rule and LEAST_ENERGY[tendon] < 6:
+        rule["starts"] = LEAST_ENERGY[tendon]
     blob = json.dumps(rounded({"model": hashlib.sha256(full_arm.MODEL_FILE.read_bytes()).hexdigest(),
                                "tendon": tendon, "width_m": FOOTPRINT_M[tendon], "resolution": resolution,
                                "surface": "wrap", "rest": "pose", "material": material.as_dict(),
@@ -128,11 +143,12 @@ class BandTable:
         return self._interp(np.atleast_2d(poses_deg))
 
 
-def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_arm.Pose | None = None) -> dict:
+def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_arm.Pose | None = None,
+               jobs: int = 1) -> dict:
     """The taut band of `tendon` at every grid pose: arrays on the grid's shape; RuntimeError naming the poses where
     no equilibrium was found."""
     shape, poses = tuple(len(a) for a in axes(tendon)), grid_poses(tendon)
-    r = solve_poses(tendon, poses, resolution, progress, pose)
+    r = solve_poses(tendon, poses, resolution, progress, pose, jobs)
     arm, mjcf, unsolved = r["fem_m"], r["mjcf_m"], ~r["converged"]
     tension, contact = np.nan_to_num(r["tension_N"]), np.nan_to_num(r["contact_N"])  # 0 where unsolved
     if unsolved.sum() > MAX_UNSOLVED * len(poses):
@@ -146,27 +162,49 @@ def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_
 
 
 def solve_poses(tendon: str, poses: np.ndarray, resolution: str, progress=None,
-                pose: full_arm.Pose | None = None) -> dict:
+                pose: full_arm.Pose | None = None, jobs: int = 1) -> dict:
     """The taut band of `tendon` at `poses` (P, 3) deg, as `footprint.compare` returns it (rest="pose"): the ramp's
-    equilibrium, or for LEAST_ENERGY tendons `least_energy`'s."""
+    equilibrium, or for LEAST_ENERGY tendons `least_energy`'s. `jobs` > 1: that many processes, each solving CHUNK
+    poses at a time (each pose's equilibrium is its own, so the result is the same); progress(n) after n poses."""
+    poses = np.atleast_2d(np.asarray(poses, float))
+    if jobs > 1 and len(poses) > CHUNK:
+        return _solve_parallel(tendon, poses, resolution, progress, jobs)
     if tendon in LEAST_ENERGY:
         return least_energy(tendon, poses, resolution, progress, pose)
     return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose")
 
 
+CHUNK = 20  # poses a worker process solves at a time (the sheet is set up anew for each chunk: ~0.02 s)
+
+
+def _solve_parallel(tendon: str, poses: np.ndarray, resolution: str, progress, jobs: int) -> dict:
+    chunks = [poses[i:i + CHUNK] for i in range(0, len(poses), CHUNK)]
+    parts = [None] * len(chunks)
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        futures = {pool.submit(solve_poses, tendon, c, resolution): k for k, c in enumerate(chunks)}
+        for done in as_completed(futures):
+            parts[futures[done]] = done.result()
+            if progress is not None:
+                progress(len(chunks[futures[done]]))
+    per_pose = [k for k, v in parts[0].items() if isinstance(v, np.ndarray) and v.shape[:1] == (len(chunks[0]),)]
+    return dict(parts[0], **{k: np.concatenate([p[k] for p in parts]) for k in per_pose})
+
+
 def probe_offsets() -> np.ndarray:
     """(6, 3) deg: the least-energy rule's starts beside the pose, +- PROBE_FRACTION of the tasks' step along each
-    coordinate."""
+    coordinate (+plane, +elevation, +rotation, then the same less); a tendon's rule takes the first LEAST_ENERGY[t]."""
     probe = np.diag([full_arm.POSE_STEP_DEG[c] * PROBE_FRACTION for c in full_arm.COORDINATES])
     return np.vstack([probe, -probe])
 
 
 def least_energy(tendon: str, poses: np.ndarray, resolution: str, progress=None,
-                 pose: full_arm.Pose | None = None) -> dict:
+                 pose: full_arm.Pose | None = None, starts: int | None = None) -> dict:
     """`compare`'s arrays (rest="pose") with, at each pose p, the least-energy equilibrium among the ramp's at p and
-    those Newton reaches at p from the ramp's at p + each of `probe_offsets` (`FootprintSheet.solve_least_energy`).
-    Unconverged where none converges."""
-    return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose", offsets_deg=probe_offsets())
+    those Newton reaches at p from the ramp's at p + each of the first `starts` of `probe_offsets` (default: the
+    tendon's LEAST_ENERGY, else all six; `FootprintSheet.solve_least_energy`). Unconverged where none converges."""
+    starts = LEAST_ENERGY.get(tendon, 6) if starts is None else starts
+    return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose",
+                   offsets_deg=probe_offsets()[:starts])
 
 
 def _neighbours_mean(field: np.ndarray, unsolved: np.ndarray) -> np.ndarray:
@@ -187,16 +225,10 @@ def _neighbours_mean(field: np.ndarray, unsolved: np.ndarray) -> np.ndarray:
     return out
 
 
-def _solve_one(tendon: str, resolution: str, progress=None) -> tuple[str, dict, float]:
-    t0 = time.perf_counter()
-    grid = solve_grid(tendon, resolution, progress)
-    return tendon, grid, time.perf_counter() - t0
-
-
 def build(tendons=FOOTPRINT_TENDONS, coarse: bool = False, out: Path | None = None, jobs: int = 1,
           quiet: bool = False) -> dict[str, dict]:
-    """Build (or reuse) each tendon's band table in `out` (default models/muscles_full); `jobs` processes solve
-    tendons in parallel. Returns {tendon: meta + cached}. --coarse needs --out."""
+    """Build (or reuse) each tendon's band table in `out` (default models/muscles_full), one tendon after another,
+    `jobs` processes solving its poses. Returns {tendon: meta + cached}. --coarse needs --out."""
     unknown = [t for t in tendons if t not in FOOTPRINT_TENDONS]
     if unknown:
         raise ValueError(f"no band table for {', '.join(unknown)}; tendons with one: {', '.join(FOOTPRINT_TENDONS)}")
@@ -216,20 +248,14 @@ def _build(folder: Path, tendons: tuple, resolution: str, jobs: int, quiet: bool
             result[t] = dict(meta, cached=True)
         else:
             todo.append((t, digest))
-    per_pose = jobs == 1 or len(todo) == 1
-    total = sum(len(grid_poses(t)) for t, _ in todo) if per_pose else len(todo)
-    with tqdm(total=total, desc="fem bands", unit="pose" if per_pose else "tendon", disable=quiet or not todo) as bar, \
-            (contextlib.nullcontext() if per_pose else ProcessPoolExecutor(max_workers=jobs)) as pool:
-        if per_pose:
-            solved = (_solve_one(t, resolution, bar.update) for t, _ in todo)
-        else:
-            solved = pool.map(_solve_one, [t for t, _ in todo], [resolution] * len(todo))
-        for (t, digest), (_, grid, seconds) in zip(todo, solved):
-            meta = _meta(t, resolution, digest, grid, seconds)
+    total = sum(len(grid_poses(t)) for t, _ in todo)
+    with tqdm(total=total, desc="fem bands", unit="pose", disable=quiet or not todo) as bar:
+        for t, digest in todo:
+            t0 = time.perf_counter()
+            grid = solve_grid(t, resolution, bar.update, jobs=jobs)
+            meta = _meta(t, resolution, digest, grid, time.perf_counter() - t0)
             _write(table_path(t, folder), grid, meta)
             result[t] = dict(meta, cached=False)
-            if not per_pose:
-                bar.update(1)
     return {t: result[t] for t in tendons}
 
 
@@ -244,7 +270,8 @@ def _meta(tendon, resolution, digest, grid, seconds) -> dict:
                                 float(grid["tension_N"][~grid["unsolved"]].max())],
             "unsolved_poses_deg": grid_poses(tendon)[grid["unsolved"].reshape(-1)].tolist(),
             "grid_refine": REFINE.get(tendon, 1),
-            "equilibrium": "least energy" if tendon in LEAST_ENERGY else "the ramp from rest",
+            "equilibrium": (f"least energy: the ramp's and Newton's from {LEAST_ENERGY[tendon]} of probe_offsets"
+                            if tendon in LEAST_ENERGY else "the ramp from rest"),
             "unsolved_rule": "the correction: the mean of the solved neighbouring grid poses' (one step along each "
                              "coordinate)",
             "code_version": CODE_VERSION, "input_hash": digest, "build_seconds": round(seconds, 2)}
@@ -260,7 +287,7 @@ def _write(path: Path, grid: dict, meta: dict) -> None:
 
 
 def verify(folder: Path | None = None, tendons=None, resolution: str | None = None, poses=None,
-           quiet: bool = False, interpolation: str = "linear", count: int | None = None) -> int:
+           quiet: bool = False, interpolation: str = "linear", count: int | None = None, jobs: int = 1) -> int:
     """Two sections, each able to fail (exit status 1):
     1. The taut band re-solved at held-out poses against the scheme: by default all of each tendon's grid's
        (`held_out`: halfway between its poses in every coordinate); `count` N: N of them drawn with a fixed seed
@@ -268,7 +295,8 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
        torque error at a = 1, F(L_MT(q), 1) |r_MJCF(q) + c(q) - r_band(q)|, in % of the tendon's peak
        |F(L_MT, 1) r_band| over its grid's poses (F: the length-keyed FEM table, `tendon_law`; a = 1 is where the
        error and the peak are largest); bound `verify_full.HELD_OUT_TOL`. The band solved as the table's was
-       (`solve_poses`). resolution: the sheets' (default: the table's own). interpolation: the tables' (`BandTable`).
+       (`solve_poses`, in `jobs` processes). resolution: the sheets' (default: the table's own). interpolation: the
+       tables' (`BandTable`).
     2. What MuJoCo applies with the tables (the task option line_of_action="band", `band_lines`): each tendon alone,
        at every grid pose and activation level, against F(L(q), a) r_band(q) (`verify_full.applied_vs_fem`); bound
        `verify_full.APPLIED_TOL`."""
@@ -289,7 +317,7 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
         every = held_out(t)
         if count is None:
             return every
-        return cells(min(count, len(every)), refine=REFINE.get(t, 1))[0] if count else every[:0]
+        return cells(min(count, len(every)), refine=refinement(t))[0] if count else every[:0]
 
     pose, failed, checked = full_arm.Pose(), [], False
     print(f"band tables in {folder} ({interpolation}): held-out poses re-solved per tendon; error at a = 1 in % of "
@@ -304,17 +332,19 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
         law = TendonLaw.load("fem", tendons=(t,))
         peak = peak_torque(table, law, pose)
         with tqdm(total=len(held), desc=f"verify {t}", unit="pose", disable=quiet, leave=False) as bar:
-            band = solve_poses(t, held, resolution or table.meta["resolution"], bar.update, pose)
+            band = solve_poses(t, held, resolution or table.meta["resolution"], bar.update, pose, jobs)
         unsolved = int((~band["converged"]).sum())
         err = np.abs(band["mjcf_m"] + table.correction(held) - band["fem_m"])  # NaN where unsolved
         pct = full_force(law, pose, t, held)[:, None] * err / peak * 100
         worst = np.nanmax(pct, axis=0)
         ok = bool(np.all(worst <= HELD_OUT_TOL * 100)) and unsolved == 0
         at = held[int(np.nanargmax(pct.max(axis=1)))]
-        over = int((np.nan_to_num(pct).max(axis=1) > HELD_OUT_TOL * 100).sum())
+        over = np.nan_to_num(pct).max(axis=1) > HELD_OUT_TOL * 100
         print(f"{t:<5} {len(held) - unsolved}/{len(held)} solved  largest " + " ".join(f"{x:6.2f}" for x in worst)
-              + f" %  (at {tuple(float(x) for x in at)} deg; {over} poses over the bound)  "
+              + f" %  (at {tuple(float(x) for x in at)} deg; {int(over.sum())} poses over the bound)  "
               + ("pass" if ok else "FAIL"))
+        for p, e in list(zip(held[over], pct[over]))[:SHOW_OVER]:
+            print(f"      over at {tuple(float(x) for x in p)} deg: " + " ".join(f"{x:.2f}" for x in e) + " %")
         if not ok:
             failed.append(t)
     if checked:
@@ -323,6 +353,9 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
                        f"pose and level (pass: <= {100 * APPLIED_TOL:g} % of the tendon's peak |torque| in that "
                        "coordinate)", applied_vs_fem(folder, "band", names))])
     return 1 if failed or applied else 0
+
+
+SHOW_OVER = 10  # the verify lists at most this many of a tendon's held-out poses over the bound
 
 
 def peak_torque(table: BandTable, law, pose: full_arm.Pose) -> np.ndarray:

@@ -49,17 +49,19 @@ CELLS = 24  # held-out poses (cells) per tendon
 SEED = 0
 
 
-def cells(n: int = CELLS, seed: int = SEED, refine: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def cells(n: int = CELLS, seed: int = SEED, refine=1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(centres (n, 3), the grid poses at their corners (m, 3), corner index (n, 8) into them): n held-out poses of
-    the tasks' grid, or with `refine` K one sub-cell of each of them on the grid K times finer."""
+    the tasks' grid, or with `refine` K (or one per coordinate) one sub-cell of each of them on the grid K times
+    finer."""
     rng = np.random.default_rng(seed)
     held = held_out_poses()
     centres = held[np.sort(rng.choice(len(held), n, replace=False))]
     half = np.array([full_arm.POSE_STEP_DEG[c] / 2 for c in full_arm.COORDINATES])
-    if refine > 1:  # sub-cell i (0..K-1 per coordinate) of a cell: centre at -h + (2i + 1) h / K from the cell's
-        sub = rng.integers(0, refine, size=(n, 3))
-        centres = centres - half + (2 * sub + 1) * half / refine
-        half = half / refine
+    k = np.broadcast_to(np.asarray(refine), (3,))
+    if (k > 1).any():  # sub-cell i (0..K-1 per coordinate) of a cell: centre at -h + (2i + 1) h / K from the cell's
+        sub = rng.integers(0, refine if np.ndim(refine) == 0 else k, size=(n, 3))
+        centres = centres - half + (2 * sub + 1) * half / k
+        half = half / k
     signs = np.array(list(itertools.product((-1.0, 1.0), repeat=3)))
     corners = centres[:, None, :] + signs[None] * half
     unique, index = np.unique(corners.reshape(-1, 3).round(9), axis=0, return_inverse=True)

@@ -29,10 +29,11 @@ APPLIED_TOL = 0.01
 LABELS = tuple(full_arm.COORDINATE_LABELS[c] for c in full_arm.COORDINATES)
 
 
-def held_out_poses(refine: int = 1) -> np.ndarray:
-    """(P, 3) poses halfway between the pose grid's in every coordinate (deg); `refine` K: the grid's with its step
-    divided by K (a band table's, `fem.bands.REFINE`)."""
-    step = {c: full_arm.POSE_STEP_DEG[c] / refine for c in full_arm.COORDINATES}
+def held_out_poses(refine=1) -> np.ndarray:
+    """(P, 3) poses halfway between the pose grid's in every coordinate (deg); `refine` K (or one per coordinate):
+    the grid's with its step divided by K (a band table's, `fem.bands.REFINE`)."""
+    k = np.broadcast_to(np.asarray(refine), (3,))
+    step = {c: full_arm.POSE_STEP_DEG[c] / kc for c, kc in zip(full_arm.COORDINATES, k)}
     axes = [np.arange(lo + step[c] / 2, hi, step[c]) for c, (lo, hi) in full_arm.POSE_RANGE_DEG.items()]
     return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
 
