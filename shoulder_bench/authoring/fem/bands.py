@@ -28,7 +28,7 @@ least-energy of that one and those Newton reaches at the pose from the ramp's at
 tasks' step along each coordinate, the first LEAST_ENERGY[t] of those six starts (`least_energy`): still the pose's
 alone, not the way there.
 
-A grid pose where the band finds no equilibrium (tma at plane 90, elevation 140, rotation -45) takes the mean of its
+A grid pose where the band finds no equilibrium (tma at plane 80-90, elevation 140, rotation -45) takes the mean of its
 solved neighbours' correction; such poses are listed in the table (`unsolved`, meta) and at most MAX_UNSOLVED of
 the grid may be.
 
