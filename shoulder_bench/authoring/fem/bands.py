@@ -165,7 +165,8 @@ def solve_poses(tendon: str, poses: np.ndarray, resolution: str, progress=None,
                 pose: full_arm.Pose | None = None, jobs: int = 1) -> dict:
     """The taut band of `tendon` at `poses` (P, 3) deg, as `footprint.compare` returns it (rest="pose"): the ramp's
     equilibrium, or for LEAST_ENERGY tendons `least_energy`'s. `jobs` > 1: that many processes, each solving CHUNK
-    poses at a time (each pose's equilibrium is its own, so the result is the same); progress(n) after n poses."""
+    poses at a time on a model it poses itself (`pose` unused; each pose's equilibrium is its own, so the result is
+    the same); progress(n) after n poses."""
     poses = np.atleast_2d(np.asarray(poses, float))
     if jobs > 1 and len(poses) > CHUNK:
         return _solve_parallel(tendon, poses, resolution, progress, jobs)

@@ -59,7 +59,7 @@ def cells(n: int = CELLS, seed: int = SEED, refine=1) -> tuple[np.ndarray, np.nd
     half = np.array([full_arm.POSE_STEP_DEG[c] / 2 for c in full_arm.COORDINATES])
     k = np.broadcast_to(np.asarray(refine), (3,))
     if (k > 1).any():  # sub-cell i (0..K-1 per coordinate) of a cell: centre at -h + (2i + 1) h / K from the cell's
-        sub = rng.integers(0, refine if np.ndim(refine) == 0 else k, size=(n, 3))
+        sub = rng.integers(0, k, size=(n, 3))
         centres = centres - half + (2 * sub + 1) * half / k
         half = half / k
     signs = np.array(list(itertools.product((-1.0, 1.0), repeat=3)))
