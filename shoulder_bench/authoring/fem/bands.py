@@ -16,8 +16,8 @@ grid with its step divided, in every coordinate or per coordinate (every pose of
 is). What is exploited: that the band's line of action departs
 smoothly from the MJCF path's (the MJCF arms themselves turn fast near high elevation, 16 % of peak between the
 grid's poses for ssp, and the band's with them: a table of the band's own arms would miss by as much, the
-correction by < 1 %; docs/fem.md). Not exploited here: the activation (the band is solved at a = 1; the line of
-action of the walked sheets moved 1-4 mm between a = 0.25 and 1, docs/fem.md "Activation").
+correction by < 1 %; docs/fem.md). Not exploited here: the activation (the band is solved at a = 1; continued down to
+a = 0.25 its line moves by up to 1.4 mm, 9 mm for isp: `benchmarks/band_activation.py`, docs/fem.md "Taut bands").
 
 Tendons: those whose footprint sheet is resolved (FOOTPRINT_TENDONS). ssc is left out: its 40 mm sheet on the parent's
 17 mm wrap sphere has several equilibria, unresolved until its contact surface is the humeral head.
@@ -294,8 +294,9 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
        (`held_out`: halfway between its poses in every coordinate); `count` N: N of them drawn with a fixed seed
        (`footprint_grid.cells`); `poses`: these (P, 3) deg for every tendon (length 0: none). Per coordinate the
        torque error at a = 1, F(L_MT(q), 1) |r_MJCF(q) + c(q) - r_band(q)|, in % of the tendon's peak
-       |F(L_MT, 1) r_band| over its grid's poses (F: the length-keyed FEM table, `tendon_law`; a = 1 is where the
-       error and the peak are largest); bound `verify_full.HELD_OUT_TOL`. The band solved as the table's was
+       |F(L_MT, 1) r_band| over its grid's poses (F: the length-keyed FEM table, `tendon_law`; a = 1, where the
+       force is largest: the band's line moves a little at lower levels, measured apart by
+       `benchmarks/band_activation.py`); bound `verify_full.HELD_OUT_TOL`. The band solved as the table's was
        (`solve_poses`, in `jobs` processes). resolution: the sheets' (default: the table's own). interpolation: the
        tables' (`BandTable`).
     2. What MuJoCo applies with the tables (the task option line_of_action="band", `band_lines`): each tendon alone,

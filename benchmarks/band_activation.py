@@ -1,0 +1,109 @@
+"""Does the taut band's line of action depend on the activation? (docs/fem.md "Taut bands", "The activation")
+
+    .venv/bin/python benchmarks/band_activation.py --tendon ssp [--n 40] [--seed 0]   (≈ 1-5 s a pose)
+
+The band tables hold one line of action per pose, the band's at a = 1, and `fem verify --bands` checks them at a = 1
+only. At a lower activation the tendon's force F(L_MT, a) is smaller, but the band's line may move: this measures by
+how much. At N poses drawn from the tendon's table grid (`bands.grid_poses`, fixed seed) the band is solved at a = 1
+by its table's rule (the ramp, or `LEAST_ENERGY`'s least-energy equilibrium) and then, on the same branch, at each
+lower level of ACTIVATIONS (Newton from the equilibrium at the level above, `FootprintSheet.solve_from`); the ramp
+from rest to each level is solved too, to see whether it reaches the same equilibrium. At a grid pose the table's
+line is the band's at a = 1, so the scheme's error at level a is F(L_MT(q), a) |r_band(q, a) - r_band(q, 1)| per
+coordinate, reported as the verify reports its errors: in % of the tendon's peak |F(L_MT, 1) r_band| over its grid
+(`bands.peak_torque`), against the verify's bound (`verify_full.HELD_OUT_TOL`).
+"""
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from shoulder_bench import full_arm
+from shoulder_bench.authoring.fem.bands import (
+    FOOTPRINT_TENDONS,
+    LEAST_ENERGY,
+    BandTable,
+    full_force,
+    grid_poses,
+    peak_torque,
+    probe_offsets,
+)
+from shoulder_bench.authoring.fem.footprint import FootprintSheet
+from shoulder_bench.authoring.fem.solver import NoConvergence
+from shoulder_bench.authoring.fem.verify_full import HELD_OUT_TOL
+from shoulder_bench.band_lines import table_path
+from shoulder_bench.tendon_law import TendonLaw
+
+ACTIVATIONS = (0.25, 0.5, 0.75)  # the levels below 1 the band is solved at (the FEM ramp's own steps)
+SAME_MM = 0.05  # the ramp to a level reaches the continued equilibrium when its arms are this close
+
+
+def at_full(sheet: FootprintSheet, tendon: str, p: np.ndarray) -> dict:
+    """The band at `p`, a = 1, as its table solves it."""
+    if tendon in LEAST_ENERGY:
+        return sheet.solve_least_energy(p, probe_offsets()[:LEAST_ENERGY[tendon]])
+    return sheet.solve_from(p, sheet.solve(p)["nodes"])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--tendon", choices=FOOTPRINT_TENDONS, required=True)
+    ap.add_argument("--n", type=int, default=40, help="poses drawn from the table's grid")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    t, pose = args.tendon, full_arm.Pose()
+    poses = grid_poses(t)
+    poses = poses[np.sort(np.random.default_rng(args.seed).choice(len(poses), min(args.n, len(poses)), False))]
+    law = TendonLaw.load("fem", tendons=(t,))
+    peak = peak_torque(BandTable(table_path(t, full_arm.TABLE_FOLDER)), law, pose)
+    lengths = pose.tendon_geometry(poses, (t,))[0]
+    sheet = FootprintSheet(t, "full", pose=pose, rest="pose")
+    moved = {a: [] for a in ACTIVATIONS}  # (mm, 3) per solved pose
+    error = {a: [] for a in ACTIVATIONS}  # (% of peak, 3)
+    ramp_other = {a: 0 for a in ACTIVATIONS}  # poses where the ramp to a reaches another equilibrium, or none
+    ramp_gap = {a: [0.0] for a in ACTIVATIONS}  # (mm) how far that one's arms lie from the continued one's
+    skipped = 0
+    for i, p in enumerate(poses):
+        try:
+            full = at_full(sheet, t, p)
+            levels, nodes = {}, full["nodes"]
+            for a in sorted(ACTIVATIONS, reverse=True):  # each level continued from the one above
+                levels[a] = sheet.solve_from(p, nodes, a)
+                nodes = levels[a]["nodes"]
+        except NoConvergence:
+            skipped += 1
+            print(f"{tuple(p.tolist())}: no equilibrium at some level; skipped", flush=True)
+            continue
+        for a, sol in levels.items():
+            d = np.abs(sol["moment_arm_m"] - full["moment_arm_m"])
+            force = law.force(lengths[i:i + 1], np.zeros((1, 1)), np.full((1, 1), a))[0, 0]
+            moved[a].append(d * 1e3)
+            error[a].append(force * d / peak * 100)
+            try:
+                gap = np.abs(sheet.solve(p, a)["moment_arm_m"] - sol["moment_arm_m"]).max() * 1e3
+                ramp_other[a] += int(gap > SAME_MM)
+                ramp_gap[a].append(gap)
+            except NoConvergence:
+                ramp_other[a] += 1
+        worst = max(error[a][-1].max() for a in ACTIVATIONS)
+        print(f"{tuple(p.tolist())} deg: arms moved at a = {', '.join(map(str, ACTIVATIONS))}: "
+              + "; ".join(" ".join(f"{x:.2f}" for x in moved[a][-1]) for a in ACTIVATIONS)
+              + f" mm; largest error {worst:.2f} %", flush=True)
+    solved = len(poses) - skipped
+    print(f"\n{t}: {solved} of {len(poses)} grid poses solved at every level; F(L, 1) at the poses "
+          f"{full_force(law, pose, t, poses).min():.0f}-{full_force(law, pose, t, poses).max():.0f} N; peak torque "
+          + " / ".join(f"{x:.2f}" for x in peak) + " N m (plane / elevation / rotation)")
+    print("level  arms moved from a = 1, median / largest (mm)        error, largest (% of peak)   over "
+          f"{HELD_OUT_TOL * 100:g} %  ramp elsewhere (largest gap, mm)")
+    for a in ACTIVATIONS:
+        if not solved:
+            break
+        m, e = np.array(moved[a]), np.array(error[a])
+        print(f"{a:5.2f}  " + "  ".join(f"{np.median(m[:, k]):.2f} / {m[:, k].max():.2f}" for k in range(3))
+              + "   " + " / ".join(f"{x:.2f}" for x in e.max(axis=0))
+              + f"   {int((e.max(axis=1) > HELD_OUT_TOL * 100).sum()):4d}"
+              + f"   {ramp_other[a]:4d} ({max(ramp_gap[a]):.2f})")
+
+
+if __name__ == "__main__":
+    main()
