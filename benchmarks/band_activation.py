@@ -10,7 +10,7 @@ lower level of ACTIVATIONS (Newton from the equilibrium at the level above, `Foo
 from rest to each level is solved too, to see whether it reaches the same equilibrium. At a grid pose the table's
 line is the band's at a = 1, so the scheme's error at level a is F(L_MT(q), a) |r_band(q, a) - r_band(q, 1)| per
 coordinate, reported as the verify reports its errors: in % of the tendon's peak |F(L_MT, 1) r_band| over its grid
-(`bands.peak_torque`), against the verify's bound (`verify_full.HELD_OUT_TOL`).
+(`band_verify.peak_torque`), against the verify's bound (`verify_full.HELD_OUT_TOL`).
 """
 from __future__ import annotations
 
@@ -19,15 +19,8 @@ import argparse
 import numpy as np
 
 from shoulder_bench import full_arm
-from shoulder_bench.authoring.fem.bands import (
-    FOOTPRINT_TENDONS,
-    LEAST_ENERGY,
-    BandTable,
-    full_force,
-    grid_poses,
-    peak_torque,
-    probe_offsets,
-)
+from shoulder_bench.authoring.fem.band_verify import full_force, peak_torque
+from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, LEAST_ENERGY, BandTable, grid_poses, probe_offsets
 from shoulder_bench.authoring.fem.footprint import FootprintSheet
 from shoulder_bench.authoring.fem.solver import NoConvergence
 from shoulder_bench.authoring.fem.verify_full import HELD_OUT_TOL

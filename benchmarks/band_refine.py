@@ -22,7 +22,8 @@ import numpy as np
 
 from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem import bands
-from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, BandTable, full_force, peak_torque, table_path
+from shoulder_bench.authoring.fem.band_verify import full_force, peak_torque
+from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, BandTable, table_path
 from shoulder_bench.authoring.fem.footprint import compare
 from shoulder_bench.tendon_law import TendonLaw
 

@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from shoulder_bench.authoring.fem import bands
+from shoulder_bench.authoring.fem import band_verify, bands
 from shoulder_bench.cli.fem import main as fem_main
 
 # one cell of the tasks' grid (its steps: plane 15, elevation 10, rotation 15 deg) and its centre
@@ -29,7 +29,7 @@ def test_a_band_table_is_built_cached_and_verified(cell, tmp_path, capsys):
     np.testing.assert_allclose(table.correction([45.0, 40.0, 15.0])[0], diff[1, 0, 1], atol=1e-15)
     np.testing.assert_allclose(table.correction(CENTRE)[0], diff.reshape(-1, 3).mean(axis=0), atol=1e-15)
     assert bands.build(("tmi",), coarse=True, out=tmp_path, quiet=True)["tmi"]["cached"] is True
-    assert bands.verify(tmp_path, ("tmi",), poses=CENTRE, quiet=True) == 0
+    assert band_verify.verify(tmp_path, ("tmi",), poses=CENTRE, quiet=True) == 0
     assert "pass" in capsys.readouterr().out
     # a table 1 mm off its band in the rotation arm (tmi's peak rotation arm is ~20 mm: ~5 %) fails
     path = bands.table_path("tmi", tmp_path)
@@ -37,7 +37,7 @@ def test_a_band_table_is_built_cached_and_verified(cell, tmp_path, capsys):
         arrays = {k: z[k] for k in z.files}
     arrays["moment_arm_m"][..., 2] += 0.001
     np.savez(path, **arrays)
-    assert bands.verify(tmp_path, ("tmi",), poses=CENTRE, quiet=True) == 1
+    assert band_verify.verify(tmp_path, ("tmi",), poses=CENTRE, quiet=True) == 1
     out = capsys.readouterr().out
     assert "FAIL" in out and f"over at {CENTRE[0]} deg" in out  # the poses over, listed
     meta = json.loads(str(np.load(path)["meta"]))
@@ -53,7 +53,7 @@ def test_bad_requests_are_refused_before_any_solve(tmp_path, capsys):
         fem_main(["build", "--bands", "--tendon", "ssc", "--coarse", "--out", str(tmp_path)])
     with pytest.raises(SystemExit, match="go with --bands"):
         fem_main(["verify", "--held-out", "3"])
-    assert bands.verify(tmp_path, quiet=True) == 1  # an empty folder
+    assert band_verify.verify(tmp_path, quiet=True) == 1  # an empty folder
     assert "no band tables" in capsys.readouterr().out
     with pytest.raises(SystemExit, match="must be >= 0"):
         fem_main(["verify", "--bands", "--held-out", "-1"])
@@ -194,3 +194,28 @@ def test_poses_solved_in_processes_equal_those_solved_in_one(monkeypatch):
     for k in ("fem_m", "mjcf_m", "tension_N", "converged", "stretch"):
         np.testing.assert_allclose(two[k], one[k], rtol=1e-12, atol=1e-15)
     np.testing.assert_array_equal(two["poses_deg"], poses)
+
+
+def test_a_refined_grid_reuses_the_poses_its_previous_table_solved(cell, monkeypatch, tmp_path, capsys):
+    """A build onto a finer grid takes the poses the stale table already holds (built from the same inputs on its own
+    grid, so each pose's equilibrium is the same) and solves only the new ones: the table equals one built from
+    nothing, the poses solved are counted, and a table built by another rule is not reused."""
+    monkeypatch.setattr(bands, "LEAST_ENERGY", ())  # the ramp alone: quick
+    bands.build(("pec1",), coarse=True, out=tmp_path, quiet=True)
+    finer = [AXES[0], np.array([40.0, 45.0, 50.0]), AXES[2]]
+    monkeypatch.setattr(bands, "axes", lambda tendon=None: [a.copy() for a in finer])
+    solved = []
+    real = bands.solve_poses
+    monkeypatch.setattr(bands, "solve_poses", lambda t, poses, *a, **k: solved.append(len(poses)) or real(
+        t, poses, *a, **k))
+    assert fem_main(["build", "--bands", "--tendon", "pec1", "--coarse", "--out", str(tmp_path)]) == 0
+    assert "solved but 8 poses taken from the table it replaces" in capsys.readouterr().out
+    meta = bands.BandTable(bands.table_path("pec1", tmp_path)).meta
+    assert solved == [4] and meta["reused_poses"] == 8
+    again = bands.build(("pec1",), coarse=True, out=tmp_path / "fresh", quiet=True)["pec1"]
+    assert solved == [4, 12] and again["reused_poses"] == 0 and again["input_hash"] == meta["input_hash"]
+    reused, fresh = (bands.BandTable(bands.table_path("pec1", d)).arrays for d in (tmp_path, tmp_path / "fresh"))
+    for k in ("moment_arm_m", "mjcf_moment_arm_m", "tension_N", "contact_N", "unsolved"):
+        np.testing.assert_allclose(reused[k], fresh[k], rtol=1e-9, atol=1e-12)
+    monkeypatch.setattr(bands, "LEAST_ENERGY", {"pec1": 1})  # another rule: its hash differs, nothing is reused
+    assert bands.reusable(bands.table_path("pec1", tmp_path), "pec1", "coarse", bands.Material()) is None

@@ -58,6 +58,8 @@ def _build_full(args) -> int:
     for t, m in metas.items():
         n, lam = m["newton_iterations"], m["fibre_stretch_range"]
         how = "up to date, nothing to do" if m["cached"] else "solved"
+        if not m["cached"] and m.get("reused_poses"):
+            how += f" but {m['reused_poses']} poses taken from the table it replaces"
         print(f"{t}: {m['sheet']['resolution']} sheet, {how} ({m['build_seconds']:.1f} s to solve; Newton "
               f"{n['total']} iterations, <= {n['max_per_point']} per point, {m['tolerance']}; fibre stretch "
               f"{lam[0]:.3f}-{lam[1]:.3f})")
@@ -79,6 +81,8 @@ def _build_bands(args) -> int:
         raise SystemExit(f"shoulder-bench fem build: error: {exc}") from None
     for t, m in metas.items():
         how = "up to date, nothing to do" if m["cached"] else "solved"
+        if not m["cached"] and m.get("reused_poses"):
+            how += f" but {m['reused_poses']} poses taken from the table it replaces"
         big = ", ".join(f"{k} {v:.1f}" for k, v in m["largest_correction_mm"].items())
         print(f"{t}: {m['resolution']} band, {how} ({m['build_seconds']:.1f} s to solve; largest correction to the "
               f"MJCF arms, mm: {big}; tension {m['tension_range_N'][0]:.0f}-{m['tension_range_N'][1]:.0f} N)")
@@ -91,7 +95,7 @@ def _verify(args) -> int:
         raise SystemExit("shoulder-bench fem verify: error: --variant is for --full (the v2 arm's variant tables: "
                          "python -m shoulder_bench.authoring.fem.v2 --variant ld_transfer)")
     if args.bands:
-        from shoulder_bench.authoring.fem import bands
+        from shoulder_bench.authoring.fem import band_verify, bands
 
         if args.held_out is not None and args.held_out < 0:
             raise SystemExit(f"shoulder-bench fem verify: error: --held-out must be >= 0, not {args.held_out}")
@@ -102,8 +106,8 @@ def _verify(args) -> int:
             raise SystemExit(f"shoulder-bench fem verify: error: no band table for {', '.join(unknown)}; choose from "
                              f"{', '.join(bands.FOOTPRINT_TENDONS)}")
         try:
-            return bands.verify(folder=args.tables, tendons=args.tendon, interpolation=args.interpolation,
-                                count=args.held_out, jobs=args.jobs)
+            return band_verify.verify(folder=args.tables, tendons=args.tendon, interpolation=args.interpolation,
+                                      count=args.held_out, jobs=args.jobs)
         except ValueError as exc:  # a missing or unreadable table
             raise SystemExit(f"shoulder-bench fem verify: error: {exc}") from None
     if args.held_out is not None or args.tendon or args.interpolation != "linear" or args.jobs != 1:

@@ -1,5 +1,5 @@
 """Line-of-action tables from the footprint sheets (issue 12 §2; docs/fem.md "Taut bands"):
-`shoulder-bench fem build --bands [--tendon T ...] [--jobs N] [--coarse --out DIR]`, `fem verify --bands`.
+`shoulder-bench fem build --bands [--tendon T ...] [--jobs N] [--coarse --out DIR]`, `fem verify --bands` (`band_verify.py`).
 
 The reduced-order scheme. A tendon's generalised force about (plane, elevation, rotation) is
 
@@ -34,9 +34,10 @@ the grid may be.
 
 Caching and resuming: each table carries its input hash (the model file's bytes, the footprint width, the sheet
 resolution, material, solver settings, the grid, CODE_VERSION); a build solves only tendons whose table is missing or
-stale, writes each atomically when done, and holds the folder's lock while it runs. `jobs` processes solve a
-tendon's poses (and the verify's held-out ones), CHUNK at a time: each pose's equilibrium is its own, so the tables
-do not depend on it.
+stale, writes each atomically when done, and holds the folder's lock while it runs. A stale table built from the same
+inputs on another grid (a REFINE change) lends the poses it holds to the new grid (`reusable`), so a grid refined
+from it solves only its new poses. `jobs` processes solve a tendon's poses (and the verify's held-out ones, in
+`band_verify`), CHUNK at a time: each pose's equilibrium is its own, so the tables do not depend on it.
 """
 from __future__ import annotations
 
@@ -105,7 +106,8 @@ def _mesh(values) -> np.ndarray:
     return np.stack(np.meshgrid(*values, indexing="ij"), axis=-1).reshape(-1, 3)
 
 
-def input_hash(tendon: str, resolution: str, material: Material) -> str:
+def input_hash(tendon: str, resolution: str, material: Material, grid_axes=None) -> str:
+    """The hash of all a table's solutions depend on, its grid `grid_axes` (default `axes(tendon)`) included."""
     # the rule for LEAST_ENERGY tendons only, and its number of starts where fewer than six, so that the tables built
     # before either was a choice keep their hashes
     rule = {"equilibrium": "least energy", "probe": PROBE_FRACTION} if tendon in LEAST_ENERGY else {}
@@ -114,7 +116,8 @@ def input_hash(tendon: str, resolution: str, material: Material) -> str:
     blob = json.dumps(rounded({"model": hashlib.sha256(full_arm.MODEL_FILE.read_bytes()).hexdigest(),
                                "tendon": tendon, "width_m": FOOTPRINT_M[tendon], "resolution": resolution,
                                "surface": "wrap", "rest": "pose", "material": material.as_dict(),
-                               "solver": SETTINGS.as_dict(), "axes": [a.tolist() for a in axes(tendon)],
+                               "solver": SETTINGS.as_dict(),
+                               "axes": [np.asarray(a).tolist() for a in (grid_axes or axes(tendon))],
                                "code_version": CODE_VERSION, **rule}), sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()
 
@@ -144,11 +147,12 @@ class BandTable:
 
 
 def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_arm.Pose | None = None,
-               jobs: int = 1) -> dict:
+               jobs: int = 1, known: dict | None = None) -> dict:
     """The taut band of `tendon` at every grid pose: arrays on the grid's shape; RuntimeError naming the poses where
-    no equilibrium was found."""
+    no equilibrium was found. `known` (`reusable`): poses already solved by the same rule and inputs, taken as they
+    are (each pose's equilibrium is its own); the rest are solved."""
     shape, poses = tuple(len(a) for a in axes(tendon)), grid_poses(tendon)
-    r = solve_poses(tendon, poses, resolution, progress, pose, jobs)
+    r = _with_known(tendon, poses, known, lambda todo: solve_poses(tendon, todo, resolution, progress, pose, jobs))
     arm, mjcf, unsolved = r["fem_m"], r["mjcf_m"], ~r["converged"]
     tension, contact = np.nan_to_num(r["tension_N"]), np.nan_to_num(r["contact_N"])  # 0 where unsolved
     if unsolved.sum() > MAX_UNSOLVED * len(poses):
@@ -158,7 +162,57 @@ def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_
     arm, mjcf, unsolved = arm.reshape(*shape, 3), mjcf.reshape(*shape, 3), unsolved.reshape(shape)
     arm[unsolved] = mjcf[unsolved] + _neighbours_mean(arm - mjcf, unsolved)[unsolved]
     return {"moment_arm_m": arm, "mjcf_moment_arm_m": mjcf, "tension_N": tension.reshape(shape),
-            "contact_N": contact.reshape(shape), "unsolved": unsolved, "f0_N": r["f0_N"]}
+            "contact_N": contact.reshape(shape), "unsolved": unsolved, "f0_N": r["f0_N"],
+            "reused": r.get("reused", 0)}
+
+
+SOLVED = ("fem_m", "mjcf_m", "tension_N", "contact_N", "converged")  # what `solve_poses` gives per pose
+
+
+def reusable(path: Path, tendon: str, resolution: str, material: Material) -> dict | None:
+    """The poses of the table at `path` as `solve_poses` gives them (SOLVED, "poses") if it was built from the inputs
+    a table of `tendon` would be built from now on its own grid (the table's stored hash equals `input_hash` with
+    that grid: the same model, sheet, material, solver, rule and code), else None: a refined grid solves only the
+    poses its previous table lacks."""
+    try:
+        arrays, meta = read_table(path)
+    except ValueError:
+        return None
+    grid = [arrays[k] for k in ("plane_deg", "elevation_deg", "rotation_deg")]
+    if meta.get("tendon") != tendon or meta.get("input_hash") != input_hash(tendon, resolution, material, grid):
+        return None
+    solved = ~arrays["unsolved"].reshape(-1)
+    arm = arrays["moment_arm_m"].reshape(-1, 3).copy()
+    arm[~solved] = np.nan  # filled from the neighbours on the table's grid: solved anew's neighbours fill them
+    return {"poses": _mesh(grid), "fem_m": arm, "mjcf_m": arrays["mjcf_moment_arm_m"].reshape(-1, 3),
+            "tension_N": np.where(solved, arrays["tension_N"].reshape(-1), np.nan),
+            "contact_N": np.where(solved, arrays["contact_N"].reshape(-1), np.nan), "converged": solved,
+            "f0_N": meta["f0_N"]}
+
+
+def _with_known(tendon: str, poses: np.ndarray, known: dict | None, solve) -> dict:
+    """`solve(poses)`'s arrays, taking the poses in `known` from it (matched to 1e-6 deg) and solving only the rest."""
+    if known is None:
+        return solve(poses)
+    at = _known_at(poses, known)
+    todo = poses[at < 0]
+    new = solve(todo) if len(todo) else {"f0_N": known["f0_N"]}
+    out = {"f0_N": new["f0_N"], "reused": int((at >= 0).sum())}
+    for k in SOLVED:
+        column = np.empty((len(poses),) + known[k].shape[1:], known[k].dtype)
+        column[at >= 0] = known[k][at[at >= 0]]
+        if len(todo):
+            column[at < 0] = new[k]
+        out[k] = column
+    return out
+
+
+def _known_at(poses: np.ndarray, known: dict | None) -> np.ndarray:
+    """(P,) each of `poses`' index in `known["poses"]` (matched to 1e-6 deg), -1 where it has none."""
+    if known is None:
+        return np.full(len(poses), -1)
+    index = {tuple(np.round(p, 6)): i for i, p in enumerate(known["poses"])}
+    return np.array([index.get(tuple(np.round(p, 6)), -1) for p in poses], dtype=int)
 
 
 def solve_poses(tendon: str, poses: np.ndarray, resolution: str, progress=None,
@@ -248,12 +302,12 @@ def _build(folder: Path, tendons: tuple, resolution: str, jobs: int, quiet: bool
         if meta.get("input_hash") == digest:
             result[t] = dict(meta, cached=True)
         else:
-            todo.append((t, digest))
-    total = sum(len(grid_poses(t)) for t, _ in todo)
+            todo.append((t, digest, reusable(table_path(t, folder), t, resolution, material)))
+    total = sum(int((_known_at(grid_poses(t), known) < 0).sum()) for t, _, known in todo)
     with tqdm(total=total, desc="fem bands", unit="pose", disable=quiet or not todo) as bar:
-        for t, digest in todo:
+        for t, digest, known in todo:
             t0 = time.perf_counter()
-            grid = solve_grid(t, resolution, bar.update, jobs=jobs)
+            grid = solve_grid(t, resolution, bar.update, jobs=jobs, known=known)
             meta = _meta(t, resolution, digest, grid, time.perf_counter() - t0)
             _write(table_path(t, folder), grid, meta)
             result[t] = dict(meta, cached=False)
@@ -275,7 +329,8 @@ def _meta(tendon, resolution, digest, grid, seconds) -> dict:
                             if tendon in LEAST_ENERGY else "the ramp from rest"),
             "unsolved_rule": "the correction: the mean of the solved neighbouring grid poses' (one step along each "
                              "coordinate)",
-            "code_version": CODE_VERSION, "input_hash": digest, "build_seconds": round(seconds, 2)}
+            "code_version": CODE_VERSION, "input_hash": digest, "build_seconds": round(seconds, 2),
+            "reused_poses": grid["reused"]}
 
 
 def _write(path: Path, grid: dict, meta: dict) -> None:
@@ -285,89 +340,3 @@ def _write(path: Path, grid: dict, meta: dict) -> None:
               "meta": np.array(json.dumps(meta, sort_keys=True))}
     with replacing(path) as tmp:
         np.savez(tmp, **arrays)
-
-
-def verify(folder: Path | None = None, tendons=None, resolution: str | None = None, poses=None,
-           quiet: bool = False, interpolation: str = "linear", count: int | None = None, jobs: int = 1) -> int:
-    """Two sections, each able to fail (exit status 1):
-    1. The taut band re-solved at held-out poses against the scheme: by default all of each tendon's grid's
-       (`held_out`: halfway between its poses in every coordinate); `count` N: N of them drawn with a fixed seed
-       (`footprint_grid.cells`); `poses`: these (P, 3) deg for every tendon (length 0: none). Per coordinate the
-       torque error at a = 1, F(L_MT(q), 1) |r_MJCF(q) + c(q) - r_band(q)|, in % of the tendon's peak
-       |F(L_MT, 1) r_band| over its grid's poses (F: the length-keyed FEM table, `tendon_law`; a = 1, where the
-       force is largest: the band's line moves a little at lower levels, measured apart by
-       `benchmarks/band_activation.py`); bound `verify_full.HELD_OUT_TOL`. The band solved as the table's was
-       (`solve_poses`, in `jobs` processes). resolution: the sheets' (default: the table's own). interpolation: the
-       tables' (`BandTable`).
-    2. What MuJoCo applies with the tables (the task option line_of_action="band", `band_lines`): each tendon alone,
-       at every grid pose and activation level, against F(L(q), a) r_band(q) (`verify_full.applied_vs_fem`); bound
-       `verify_full.APPLIED_TOL`."""
-    from shoulder_bench.authoring.fem.footprint_grid import cells
-    from shoulder_bench.authoring.fem.verify import report
-    from shoulder_bench.authoring.fem.verify_full import APPLIED_TOL, HELD_OUT_TOL, applied_vs_fem
-    from shoulder_bench.tendon_law import TendonLaw
-
-    folder = Path(folder or full_arm.TABLE_FOLDER)
-    names = [t for t in (tendons or FOOTPRINT_TENDONS) if tendons or table_path(t, folder).exists()]
-    if not names:
-        print(f"no band tables in {folder}; build them with `shoulder-bench fem build --bands`")
-        return 1
-
-    def held_poses(t: str) -> np.ndarray:
-        if poses is not None:
-            return np.asarray(poses, float).reshape(-1, 3)
-        every = held_out(t)
-        if count is None:
-            return every
-        return cells(min(count, len(every)), refine=refinement(t))[0] if count else every[:0]
-
-    pose, failed, checked = full_arm.Pose(), [], False
-    print(f"band tables in {folder} ({interpolation}): held-out poses re-solved per tendon; error at a = 1 in % of "
-          f"the tendon's peak |torque| over its grid (bound {HELD_OUT_TOL * 100:g} %): plane, elevation, rotation")
-    for t in names:
-        held = held_poses(t)
-        if not len(held):
-            print(f"{t:<5} 0 held-out poses")
-            continue
-        checked = True
-        table = BandTable(table_path(t, folder), interpolation)
-        law = TendonLaw.load("fem", tendons=(t,))
-        peak = peak_torque(table, law, pose)
-        with tqdm(total=len(held), desc=f"verify {t}", unit="pose", disable=quiet, leave=False) as bar:
-            band = solve_poses(t, held, resolution or table.meta["resolution"], bar.update, pose, jobs)
-        unsolved = int((~band["converged"]).sum())
-        err = np.abs(band["mjcf_m"] + table.correction(held) - band["fem_m"])  # NaN where unsolved
-        pct = full_force(law, pose, t, held)[:, None] * err / peak * 100
-        worst = np.nanmax(pct, axis=0)
-        ok = bool(np.all(worst <= HELD_OUT_TOL * 100)) and unsolved == 0
-        at = held[int(np.nanargmax(pct.max(axis=1)))]
-        over = np.nan_to_num(pct).max(axis=1) > HELD_OUT_TOL * 100
-        print(f"{t:<5} {len(held) - unsolved}/{len(held)} solved  largest " + " ".join(f"{x:6.2f}" for x in worst)
-              + f" %  (at {tuple(float(x) for x in at)} deg; {int(over.sum())} poses over the bound)  "
-              + ("pass" if ok else "FAIL"))
-        for p, e in list(zip(held[over], pct[over]))[:SHOW_OVER]:
-            print(f"      over at {tuple(float(x) for x in p)} deg: " + " ".join(f"{x:.2f}" for x in e) + " %")
-        if not ok:
-            failed.append(t)
-    if checked:
-        print("all band tables within the bound" if not failed else f"over the bound or unsolved: {', '.join(failed)}")
-    applied = report([(f"MuJoCo's applied generalised force with the band corrections vs the FEM band's, every grid "
-                       f"pose and level (pass: <= {100 * APPLIED_TOL:g} % of the tendon's peak |torque| in that "
-                       "coordinate)", applied_vs_fem(folder, "band", names))])
-    return 1 if failed or applied else 0
-
-
-SHOW_OVER = 10  # the verify lists at most this many of a tendon's held-out poses over the bound
-
-
-def peak_torque(table: BandTable, law, pose: full_arm.Pose) -> np.ndarray:
-    """(3,) N m: the tendon's peak |F(L_MT, 1) r_band| over its table's grid poses, the scale of the verify's errors."""
-    arms = table.arrays["moment_arm_m"].reshape(-1, 3)
-    poses = _mesh([table.arrays[k] for k in ("plane_deg", "elevation_deg", "rotation_deg")])
-    return np.abs(full_force(law, pose, table.tendon, poses)[:, None] * arms).max(axis=0)
-
-
-def full_force(law, pose: full_arm.Pose, tendon: str, poses: np.ndarray) -> np.ndarray:
-    """(P,) N: the length-keyed law's force of `tendon` at full activation, at rest, at `poses` (deg)."""
-    n = len(poses)
-    return law.force(pose.tendon_geometry(poses, (tendon,))[0], np.zeros((n, 1)), np.ones((n, 1)))[:, 0]

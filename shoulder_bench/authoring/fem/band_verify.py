@@ -1,0 +1,105 @@
+"""`shoulder-bench fem verify --bands`: the band tables (`bands.py`) against the taut band re-solved at held-out poses,
+and against what MuJoCo applies with them (docs/fem.md "Taut bands")."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from shoulder_bench import full_arm
+from shoulder_bench.authoring.fem.bands import (
+    FOOTPRINT_TENDONS,
+    BandTable,
+    held_out,
+    refinement,
+    solve_poses,
+    table_path,
+)
+
+
+def verify(folder: Path | None = None, tendons=None, resolution: str | None = None, poses=None,
+           quiet: bool = False, interpolation: str = "linear", count: int | None = None, jobs: int = 1) -> int:
+    """Two sections, each able to fail (exit status 1):
+    1. The taut band re-solved at held-out poses against the scheme: by default all of each tendon's grid's
+       (`held_out`: halfway between its poses in every coordinate); `count` N: N of them drawn with a fixed seed
+       (`footprint_grid.cells`); `poses`: these (P, 3) deg for every tendon (length 0: none). Per coordinate the
+       torque error at a = 1, F(L_MT(q), 1) |r_MJCF(q) + c(q) - r_band(q)|, in % of the tendon's peak
+       |F(L_MT, 1) r_band| over its grid's poses (F: the length-keyed FEM table, `tendon_law`; a = 1, where the
+       force is largest: the band's line moves a little at lower levels, measured apart by
+       `benchmarks/band_activation.py`); bound `verify_full.HELD_OUT_TOL`. The band solved as the table's was
+       (`solve_poses`, in `jobs` processes). resolution: the sheets' (default: the table's own). interpolation: the
+       tables' (`BandTable`).
+    2. What MuJoCo applies with the tables (the task option line_of_action="band", `band_lines`): each tendon alone,
+       at every grid pose and activation level, against F(L(q), a) r_band(q) (`verify_full.applied_vs_fem`); bound
+       `verify_full.APPLIED_TOL`."""
+    from shoulder_bench.authoring.fem.footprint_grid import cells
+    from shoulder_bench.authoring.fem.verify import report
+    from shoulder_bench.authoring.fem.verify_full import APPLIED_TOL, HELD_OUT_TOL, applied_vs_fem
+    from shoulder_bench.tendon_law import TendonLaw
+
+    folder = Path(folder or full_arm.TABLE_FOLDER)
+    names = [t for t in (tendons or FOOTPRINT_TENDONS) if tendons or table_path(t, folder).exists()]
+    if not names:
+        print(f"no band tables in {folder}; build them with `shoulder-bench fem build --bands`")
+        return 1
+
+    def held_poses(t: str) -> np.ndarray:
+        if poses is not None:
+            return np.asarray(poses, float).reshape(-1, 3)
+        every = held_out(t)
+        if count is None:
+            return every
+        return cells(min(count, len(every)), refine=refinement(t))[0] if count else every[:0]
+
+    pose, failed, checked = full_arm.Pose(), [], False
+    print(f"band tables in {folder} ({interpolation}): held-out poses re-solved per tendon; error at a = 1 in % of "
+          f"the tendon's peak |torque| over its grid (bound {HELD_OUT_TOL * 100:g} %): plane, elevation, rotation")
+    for t in names:
+        held = held_poses(t)
+        if not len(held):
+            print(f"{t:<5} 0 held-out poses")
+            continue
+        checked = True
+        table = BandTable(table_path(t, folder), interpolation)
+        law = TendonLaw.load("fem", tendons=(t,))
+        peak = peak_torque(table, law, pose)
+        with tqdm(total=len(held), desc=f"verify {t}", unit="pose", disable=quiet, leave=False) as bar:
+            band = solve_poses(t, held, resolution or table.meta["resolution"], bar.update, pose, jobs)
+        unsolved = int((~band["converged"]).sum())
+        err = np.abs(band["mjcf_m"] + table.correction(held) - band["fem_m"])  # NaN where unsolved
+        pct = full_force(law, pose, t, held)[:, None] * err / peak * 100
+        worst = np.nanmax(pct, axis=0)
+        ok = bool(np.all(worst <= HELD_OUT_TOL * 100)) and unsolved == 0
+        at = held[int(np.nanargmax(pct.max(axis=1)))]
+        over = np.nan_to_num(pct).max(axis=1) > HELD_OUT_TOL * 100
+        print(f"{t:<5} {len(held) - unsolved}/{len(held)} solved  largest " + " ".join(f"{x:6.2f}" for x in worst)
+              + f" %  (at {tuple(float(x) for x in at)} deg; {int(over.sum())} poses over the bound)  "
+              + ("pass" if ok else "FAIL"))
+        for p, e in list(zip(held[over], pct[over]))[:SHOW_OVER]:
+            print(f"      over at {tuple(float(x) for x in p)} deg: " + " ".join(f"{x:.2f}" for x in e) + " %")
+        if not ok:
+            failed.append(t)
+    if checked:
+        print("all band tables within the bound" if not failed else f"over the bound or unsolved: {', '.join(failed)}")
+    applied = report([(f"MuJoCo's applied generalised force with the band corrections vs the FEM band's, every grid "
+                       f"pose and level (pass: <= {100 * APPLIED_TOL:g} % of the tendon's peak |torque| in that "
+                       "coordinate)", applied_vs_fem(folder, "band", names))])
+    return 1 if failed or applied else 0
+
+
+SHOW_OVER = 10  # the verify lists at most this many of a tendon's held-out poses over the bound
+
+
+def peak_torque(table: BandTable, law, pose: full_arm.Pose) -> np.ndarray:
+    """(3,) N m: the tendon's peak |F(L_MT, 1) r_band| over its table's grid poses, the scale of the verify's errors."""
+    arms = table.arrays["moment_arm_m"].reshape(-1, 3)
+    grid = np.meshgrid(*(table.arrays[k] for k in ("plane_deg", "elevation_deg", "rotation_deg")), indexing="ij")
+    poses = np.stack(grid, axis=-1).reshape(-1, 3)
+    return np.abs(full_force(law, pose, table.tendon, poses)[:, None] * arms).max(axis=0)
+
+
+def full_force(law, pose: full_arm.Pose, tendon: str, poses: np.ndarray) -> np.ndarray:
+    """(P,) N: the length-keyed law's force of `tendon` at full activation, at rest, at `poses` (deg)."""
+    n = len(poses)
+    return law.force(pose.tendon_geometry(poses, (tendon,))[0], np.zeros((n, 1)), np.ones((n, 1)))[:, 0]
