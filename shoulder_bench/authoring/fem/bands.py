@@ -1,5 +1,6 @@
 """Line-of-action tables from the footprint sheets (issue 12 §2; docs/fem.md "Taut bands"):
-`shoulder-bench fem build --bands [--tendon T ...] [--jobs N] [--coarse --out DIR]`, `fem verify --bands` (`band_verify.py`).
+`shoulder-bench fem build --bands [--tendon T ...] [--jobs N] [--coarse --out DIR]`; `fem verify --bands` is in
+`band_verify.py`.
 
 The reduced-order scheme. A tendon's generalised force about (plane, elevation, rotation) is
 
@@ -152,7 +153,7 @@ def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_
     no equilibrium was found. `known` (`reusable`): poses already solved by the same rule and inputs, taken as they
     are (each pose's equilibrium is its own); the rest are solved."""
     shape, poses = tuple(len(a) for a in axes(tendon)), grid_poses(tendon)
-    r = _with_known(tendon, poses, known, lambda todo: solve_poses(tendon, todo, resolution, progress, pose, jobs))
+    r = _with_known(poses, known, lambda todo: solve_poses(tendon, todo, resolution, progress, pose, jobs))
     arm, mjcf, unsolved = r["fem_m"], r["mjcf_m"], ~r["converged"]
     tension, contact = np.nan_to_num(r["tension_N"]), np.nan_to_num(r["contact_N"])  # 0 where unsolved
     if unsolved.sum() > MAX_UNSOLVED * len(poses):
@@ -183,14 +184,14 @@ def reusable(path: Path, tendon: str, resolution: str, material: Material) -> di
         return None
     solved = ~arrays["unsolved"].reshape(-1)
     arm = arrays["moment_arm_m"].reshape(-1, 3).copy()
-    arm[~solved] = np.nan  # filled from the neighbours on the table's grid: solved anew's neighbours fill them
+    arm[~solved] = np.nan  # as `solve_poses` leaves an unsolved pose; the new grid fills it from its own neighbours
     return {"poses": _mesh(grid), "fem_m": arm, "mjcf_m": arrays["mjcf_moment_arm_m"].reshape(-1, 3),
             "tension_N": np.where(solved, arrays["tension_N"].reshape(-1), np.nan),
             "contact_N": np.where(solved, arrays["contact_N"].reshape(-1), np.nan), "converged": solved,
             "f0_N": meta["f0_N"]}
 
 
-def _with_known(tendon: str, poses: np.ndarray, known: dict | None, solve) -> dict:
+def _with_known(poses: np.ndarray, known: dict | None, solve) -> dict:
     """`solve(poses)`'s arrays, taking the poses in `known` from it (matched to 1e-6 deg) and solving only the rest."""
     if known is None:
         return solve(poses)
