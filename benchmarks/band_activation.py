@@ -20,7 +20,14 @@ import numpy as np
 
 from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem.band_verify import full_force, peak_torque
-from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, LEAST_ENERGY, BandTable, grid_poses, probe_offsets
+from shoulder_bench.authoring.fem.bands import (
+    FOOTPRINT_TENDONS,
+    LEAST_ENERGY,
+    SURFACE,
+    BandTable,
+    grid_poses,
+    probe_offsets,
+)
 from shoulder_bench.authoring.fem.footprint import FootprintSheet
 from shoulder_bench.authoring.fem.solver import NoConvergence
 from shoulder_bench.authoring.fem.verify_full import HELD_OUT_TOL
@@ -50,7 +57,7 @@ def main() -> None:
     law = TendonLaw.load("fem", tendons=(t,))
     peak = peak_torque(BandTable(table_path(t, full_arm.TABLE_FOLDER)), law, pose)
     lengths = pose.tendon_geometry(poses, (t,))[0]
-    sheet = FootprintSheet(t, "full", pose=pose, rest="pose")
+    sheet = FootprintSheet(t, "full", pose=pose, rest="pose", surface=SURFACE.get(t, "wrap"))
     moved = {a: [] for a in ACTIVATIONS}  # (mm, 3) per solved pose
     error = {a: [] for a in ACTIVATIONS}  # (% of peak, 3)
     ramp_other = {a: 0 for a in ACTIVATIONS}  # poses where the ramp to a reaches another equilibrium, or none

@@ -24,7 +24,7 @@ from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem import bands
 from shoulder_bench.authoring.fem.band_verify import full_force, peak_torque
 from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, BandTable, table_path
-from shoulder_bench.authoring.fem.footprint import compare
+from shoulder_bench.authoring.fem.footprint import SURFACES, compare
 from shoulder_bench.tendon_law import TendonLaw
 
 # each tendon's largest error of `fem verify --bands` on the first tables (588 held-out poses; docs/fem.md)
@@ -48,7 +48,8 @@ def setup(tendon: str) -> tuple:
     return pose, table, law, peak_torque(table, law, pose)
 
 
-def study(tendon: str, at, factors=((2, 2, 2),), starts: int = 0) -> None:
+def study(tendon: str, at, factors=((2, 2, 2),), starts: int = 0, surface: str | None = None) -> None:
+    surface = surface or bands.SURFACE.get(tendon, "wrap")
     pose, table, law, peak = setup(tendon)
     step = np.array([full_arm.POSE_STEP_DEG[c] for c in full_arm.COORDINATES])
     p = np.asarray(at, dtype=float)
@@ -59,16 +60,16 @@ def study(tendon: str, at, factors=((2, 2, 2),), starts: int = 0) -> None:
         keys = [tuple(q) for q in np.round(poses, 9)]
         new = sorted(set(k for k in keys if k not in solved))
         if new:
-            r = compare(tendon, np.array(new), table.meta["resolution"], pose=pose, rest="pose",
+            r = compare(tendon, np.array(new), table.meta["resolution"], pose=pose, rest="pose", surface=surface,
                         offsets_deg=bands.probe_offsets()[:starts] if starts else None)
             solved.update({k: (f, m) for k, f, m in zip(new, r["fem_m"], r["mjcf_m"])})
         return np.array([solved[k][0] for k in keys]), np.array([solved[k][1] for k in keys])
 
     band, mjcf = solve(p[None])
     at_p = full_force(law, pose, tendon, p[None])[0] * np.abs(mjcf[0] + table.correction(p)[0] - band[0]) / peak * 100
-    print(f"{tendon:<5} at {tuple(p.tolist())} deg ({'the ramp' if not starts else f'least energy, {starts} start(s)'}"
-          "), error % of peak, plane / elevation / rotation: the shipped table at p " + " / ".join(f"{x:.2f}" for x in
-                                                                                           at_p), flush=True)
+    how = "the ramp" if not starts else f"least energy, {starts} start(s)"
+    print(f"{tendon:<5} at {tuple(p.tolist())} deg ({how}, contact with the {surface}), error % of peak, plane / "
+          "elevation / rotation: the shipped table at p " + " / ".join(f"{x:.2f}" for x in at_p), flush=True)
     for k in map(np.array, factors):
         nodes = lo + np.array(list(itertools.product(*[range(n + 1) for n in k]))) * step / k
         cells = np.array(list(itertools.product(*[range(n) for n in k])))
@@ -92,7 +93,8 @@ def branches(tendon: str, at) -> None:
     pose, table, law, peak = setup(tendon)
     p = np.asarray(at, dtype=float)
     quarter = np.array([full_arm.POSE_STEP_DEG[c] / 4 for c in full_arm.COORDINATES])
-    sheet = FootprintSheet(tendon, table.meta["resolution"], pose=pose, rest="pose")
+    sheet = FootprintSheet(tendon, table.meta["resolution"], pose=pose, rest="pose",
+                           surface=bands.SURFACE.get(tendon, "wrap"))
     ramped = sheet.solve(p)
     found = [("ramp from rest", ramped, sheet.solve_from(p, ramped["nodes"])["energy_J"])]
     for k, sign in itertools.product(range(3), (-1, 1)):
@@ -128,12 +130,16 @@ def main() -> None:
                     help="solve each pose as the least-energy of the ramp's and this many probe starts' equilibria "
                     "(bands.least_energy; default 0: the ramp alone)")
     ap.add_argument("--branches", action="store_true", help="the equilibria at the pose instead (see above)")
+    ap.add_argument("--surface", choices=SURFACES,
+                    help="the band's contact surface (default its table's, bands.SURFACE: wrap, the MJCF's wrap "
+                    "object, or head, the humeral head sphere)")
     args = ap.parse_args()
     for t in args.tendon:
         if args.branches:
             branches(t, args.at or WORST_DEG[t])
         else:
-            study(t, args.at or WORST_DEG[t], [tuple(f) for f in args.factors or [(2, 2, 2)]], args.starts)
+            study(t, args.at or WORST_DEG[t], [tuple(f) for f in args.factors or [(2, 2, 2)]], args.starts,
+                  args.surface)
 
 
 if __name__ == "__main__":

@@ -219,3 +219,17 @@ def test_a_refined_grid_reuses_the_poses_its_previous_table_solved(cell, monkeyp
         np.testing.assert_allclose(reused[k], fresh[k], rtol=1e-9, atol=1e-12)
     monkeypatch.setattr(bands, "LEAST_ENERGY", {"pec1": 1})  # another rule: its hash differs, nothing is reused
     assert bands.reusable(bands.table_path("pec1", tmp_path), "pec1", "coarse", bands.Material()) is None
+
+
+def test_isps_band_presses_on_the_humeral_head_and_the_others_on_their_wrap_objects(monkeypatch):
+    """bands.SURFACE: isp's band is solved against the humeral head sphere (its table's hash says so); the other
+    tendons keep the MJCF's wrap object, so their tables' hashes are as they were before SURFACE."""
+    pose = np.array([[30.0, 40.0, 0.0]])
+    isp = bands.solve_poses("isp", pose, "coarse")
+    assert isp["surface"] == "head" and isp["converged"][0] and isp["contact_N"][0] > 0
+    assert bands.solve_poses("tma", pose, "coarse")["surface"] == "wrap"
+    material = bands.Material()
+    now = {t: bands.input_hash(t, "coarse", material) for t in ("isp", "ssp")}
+    monkeypatch.setattr(bands, "SURFACE", {})  # every band on its wrap object
+    assert now["isp"] != bands.input_hash("isp", "coarse", material)
+    assert now["ssp"] == bands.input_hash("ssp", "coarse", material)

@@ -76,6 +76,12 @@ REFINE = {"ssp": 2, "pec1": 2, "tma": (3, 1, 3)}
 # poses of a hundred that have one (`benchmarks/band_branches.py`), one (docs/fem.md "What each miss is", "tma")
 LEAST_ENERGY = {"tmi": 6, "tma": 1}
 PROBE_FRACTION = 0.25  # the starts' offsets from the pose, in tasks' grid steps
+# Each tendon's contact surface (`footprint.SURFACES`; "wrap", the MJCF's wrap object, if absent): isp's on the humeral
+# head sphere (`footprint.HUMERAL_HEAD`), since on the parent's 23.5 mm wrap cylinder its band follows the MJCF path's
+# jump at high elevation in external rotation (the path's origin enters the cylinder's radius and the wrap stops)
+# and no table of it meets the held-out bound (docs/fem.md "isp: the humeral head")
+SURFACE = {"isp": "head"}
+SURFACE_TEXT = {"wrap": "the MJCF's wrap object", "head": "the humeral head sphere"}  # in each table's meta
 
 
 def refinement(tendon: str | None = None) -> tuple[int, int, int]:
@@ -116,7 +122,7 @@ def input_hash(tendon: str, resolution: str, material: Material, grid_axes=None)
         rule["starts"] = LEAST_ENERGY[tendon]
     blob = json.dumps(rounded({"model": hashlib.sha256(full_arm.MODEL_FILE.read_bytes()).hexdigest(),
                                "tendon": tendon, "width_m": FOOTPRINT_M[tendon], "resolution": resolution,
-                               "surface": "wrap", "rest": "pose", "material": material.as_dict(),
+                               "surface": SURFACE.get(tendon, "wrap"), "rest": "pose", "material": material.as_dict(),
                                "solver": SETTINGS.as_dict(),
                                "axes": [np.asarray(a).tolist() for a in (grid_axes or axes(tendon))],
                                "code_version": CODE_VERSION, **rule}), sort_keys=True)
@@ -227,7 +233,8 @@ def solve_poses(tendon: str, poses: np.ndarray, resolution: str, progress=None,
         return _solve_parallel(tendon, poses, resolution, progress, jobs)
     if tendon in LEAST_ENERGY:
         return least_energy(tendon, poses, resolution, progress, pose)
-    return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose")
+    return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose",
+                   surface=SURFACE.get(tendon, "wrap"))
 
 
 CHUNK = 20  # poses a worker process solves at a time (the sheet is set up anew for each chunk: ~0.02 s)
@@ -260,7 +267,7 @@ def least_energy(tendon: str, poses: np.ndarray, resolution: str, progress=None,
     tendon's LEAST_ENERGY, else all six; `FootprintSheet.solve_least_energy`). Unconverged where none converges."""
     starts = LEAST_ENERGY.get(tendon, 6) if starts is None else starts
     return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose",
-                   offsets_deg=probe_offsets()[:starts])
+                   surface=SURFACE.get(tendon, "wrap"), offsets_deg=probe_offsets()[:starts])
 
 
 def _neighbours_mean(field: np.ndarray, unsolved: np.ndarray) -> np.ndarray:
@@ -318,7 +325,8 @@ def _build(folder: Path, tendons: tuple, resolution: str, jobs: int, quiet: bool
 def _meta(tendon, resolution, digest, grid, seconds) -> dict:
     c = grid["moment_arm_m"] - grid["mjcf_moment_arm_m"]
     return {"tendon": tendon, "source": "fem footprint sheet, taut band (rest='pose')", "resolution": resolution,
-            "footprint_width_m": FOOTPRINT_M[tendon], "contact_surface": "the MJCF's wrap object",
+            "footprint_width_m": FOOTPRINT_M[tendon],
+            "contact_surface": SURFACE_TEXT[SURFACE.get(tendon, "wrap")],
             "model_file": "models/shoulder_full_task.xml", "f0_N": grid["f0_N"],
             "scheme": "F(L_MT(q), a) * (r_MJCF(q) + trilinear(moment_arm_m - mjcf_moment_arm_m))",
             "largest_correction_mm": dict(zip(full_arm.COORDINATES, (np.abs(c).max(axis=(0, 1, 2)) * 1e3).tolist())),
