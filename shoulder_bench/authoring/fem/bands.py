@@ -18,7 +18,8 @@ is). What is exploited: that the band's line of action departs
 smoothly from the MJCF path's (the MJCF arms themselves turn fast near high elevation, 16 % of peak between the
 grid's poses for ssp, and the band's with them: a table of the band's own arms would miss by as much, the
 correction by < 1 %; docs/fem.md). Not exploited here: the activation (the band is solved at a = 1; continued down to
-a = 0.25 its line moves by up to 1.4 mm, 9 mm for isp: `benchmarks/band_activation.py`, docs/fem.md "Taut bands").
+a = 0.25 its line moves by up to 1.4 mm, isp's on the wrap cylinder 9 mm: `benchmarks/band_activation.py`, docs/fem.md
+"Taut bands").
 
 Tendons: those whose footprint sheet is resolved (FOOTPRINT_TENDONS). ssc is left out: its 40 mm sheet on the parent's
 17 mm wrap sphere has several equilibria, unresolved until its contact surface is the humeral head.
