@@ -23,10 +23,10 @@ from shoulder_bench.authoring.fem.band_verify import full_force, peak_torque
 from shoulder_bench.authoring.fem.bands import (
     FOOTPRINT_TENDONS,
     LEAST_ENERGY,
-    SURFACE,
     BandTable,
     grid_poses,
     probe_offsets,
+    surface,
 )
 from shoulder_bench.authoring.fem.footprint import FootprintSheet
 from shoulder_bench.authoring.fem.solver import NoConvergence
@@ -57,7 +57,7 @@ def main() -> None:
     law = TendonLaw.load("fem", tendons=(t,))
     peak = peak_torque(BandTable(table_path(t, full_arm.TABLE_FOLDER)), law, pose)
     lengths = pose.tendon_geometry(poses, (t,))[0]
-    sheet = FootprintSheet(t, "full", pose=pose, rest="pose", surface=SURFACE.get(t, "wrap"))
+    sheet = FootprintSheet(t, "full", pose=pose, rest="pose", surface=surface(t))
     moved = {a: [] for a in ACTIVATIONS}  # (mm, 3) per solved pose
     error = {a: [] for a in ACTIVATIONS}  # (% of peak, 3)
     ramp_other = {a: 0 for a in ACTIVATIONS}  # poses where the ramp to a reaches another equilibrium, or none
@@ -90,8 +90,9 @@ def main() -> None:
               + "; ".join(" ".join(f"{x:.2f}" for x in moved[a][-1]) for a in ACTIVATIONS)
               + f" mm; largest error {worst:.2f} %", flush=True)
     solved = len(poses) - skipped
+    f1 = full_force(law, pose, t, poses)
     print(f"\n{t}: {solved} of {len(poses)} grid poses solved at every level; F(L, 1) at the poses "
-          f"{full_force(law, pose, t, poses).min():.0f}-{full_force(law, pose, t, poses).max():.0f} N; peak torque "
+          f"{f1.min():.0f}-{f1.max():.0f} N; peak torque "
           + " / ".join(f"{x:.2f}" for x in peak) + " N m (plane / elevation / rotation)")
     print("level  arms moved from a = 1, median / largest (mm)        error, largest (% of peak)   over "
           f"{HELD_OUT_TOL * 100:g} %  ramp elsewhere (largest gap, mm)")

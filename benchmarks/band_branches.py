@@ -18,7 +18,7 @@ import argparse
 import numpy as np
 
 from shoulder_bench import full_arm
-from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, SURFACE, grid_poses, probe_offsets
+from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, grid_poses, probe_offsets, surface
 from shoulder_bench.authoring.fem.footprint import FootprintSheet
 from shoulder_bench.authoring.fem.solver import NoConvergence
 
@@ -36,7 +36,7 @@ def main() -> None:
     poses = poses[np.sort(np.random.default_rng(args.seed).choice(len(poses), min(args.n, len(poses)), False))]
     labels = [f"{s}{c}" for s in "+-" for c in ("plane", "elevation", "rotation")]  # probe_offsets' order
     sheet = FootprintSheet(args.tendon, "full", pose=full_arm.Pose(), rest="pose",
-                           surface=SURFACE.get(args.tendon, "wrap"))
+                           surface=surface(args.tendon))
     lower, shift, found_by = 0, [], {label: 0 for label in labels}
     for p in poses:
         try:

@@ -49,7 +49,7 @@ def setup(tendon: str) -> tuple:
 
 
 def study(tendon: str, at, factors=((2, 2, 2),), starts: int = 0, surface: str | None = None) -> None:
-    surface = surface or bands.SURFACE.get(tendon, "wrap")
+    surface = surface or bands.surface(tendon)
     pose, table, law, peak = setup(tendon)
     step = np.array([full_arm.POSE_STEP_DEG[c] for c in full_arm.COORDINATES])
     p = np.asarray(at, dtype=float)
@@ -94,7 +94,7 @@ def branches(tendon: str, at) -> None:
     p = np.asarray(at, dtype=float)
     quarter = np.array([full_arm.POSE_STEP_DEG[c] / 4 for c in full_arm.COORDINATES])
     sheet = FootprintSheet(tendon, table.meta["resolution"], pose=pose, rest="pose",
-                           surface=bands.SURFACE.get(tendon, "wrap"))
+                           surface=bands.surface(tendon))
     ramped = sheet.solve(p)
     found = [("ramp from rest", ramped, sheet.solve_from(p, ramped["nodes"])["energy_J"])]
     for k, sign in itertools.product(range(3), (-1, 1)):

@@ -58,8 +58,6 @@ def _build_full(args) -> int:
     for t, m in metas.items():
         n, lam = m["newton_iterations"], m["fibre_stretch_range"]
         how = "up to date, nothing to do" if m["cached"] else "solved"
-        if not m["cached"] and m.get("reused_poses"):
-            how += f" but {m['reused_poses']} poses taken from the table it replaces"
         print(f"{t}: {m['sheet']['resolution']} sheet, {how} ({m['build_seconds']:.1f} s to solve; Newton "
               f"{n['total']} iterations, <= {n['max_per_point']} per point, {m['tolerance']}; fibre stretch "
               f"{lam[0]:.3f}-{lam[1]:.3f})")

@@ -12,6 +12,7 @@ from shoulder_bench.authoring.fem.bands import (
     FOOTPRINT_TENDONS,
     BandTable,
     held_out,
+    mesh_poses,
     refinement,
     solve_poses,
     table_path,
@@ -94,8 +95,7 @@ SHOW_OVER = 10  # the verify lists at most this many of a tendon's held-out pose
 def peak_torque(table: BandTable, law, pose: full_arm.Pose) -> np.ndarray:
     """(3,) N m: the tendon's peak |F(L_MT, 1) r_band| over its table's grid poses, the scale of the verify's errors."""
     arms = table.arrays["moment_arm_m"].reshape(-1, 3)
-    grid = np.meshgrid(*(table.arrays[k] for k in ("plane_deg", "elevation_deg", "rotation_deg")), indexing="ij")
-    poses = np.stack(grid, axis=-1).reshape(-1, 3)
+    poses = mesh_poses([table.arrays[k] for k in ("plane_deg", "elevation_deg", "rotation_deg")])
     return np.abs(full_force(law, pose, table.tendon, poses)[:, None] * arms).max(axis=0)
 
 

@@ -86,6 +86,11 @@ SURFACE = {"isp": "head"}
 SURFACE_TEXT = {"wrap": "the MJCF's wrap object", "head": "the humeral head sphere"}  # in each table's meta
 
 
+def surface(tendon: str) -> str:
+    """`tendon`'s band's contact surface: its SURFACE, else "wrap" (the MJCF's wrap object)."""
+    return SURFACE.get(tendon, "wrap")
+
+
 def refinement(tendon: str | None = None) -> tuple[int, int, int]:
     """`tendon`'s REFINE as (plane, elevation, rotation) divisors of the tasks' step (1, 1, 1 if absent or None)."""
     k = REFINE.get(tendon, 1)
@@ -101,7 +106,7 @@ def axes(tendon: str | None = None) -> list[np.ndarray]:
 
 def grid_poses(tendon: str | None = None) -> np.ndarray:
     """(P, 3) the grid's poses (deg), plane slowest, rotation fastest."""
-    return _mesh(axes(tendon))
+    return mesh_poses(axes(tendon))
 
 
 def held_out(tendon: str | None = None) -> np.ndarray:
@@ -111,7 +116,7 @@ def held_out(tendon: str | None = None) -> np.ndarray:
     return held_out_poses(refinement(tendon))
 
 
-def _mesh(values) -> np.ndarray:
+def mesh_poses(values) -> np.ndarray:
     return np.stack(np.meshgrid(*values, indexing="ij"), axis=-1).reshape(-1, 3)
 
 
@@ -124,7 +129,7 @@ def input_hash(tendon: str, resolution: str, material: Material, grid_axes=None)
         rule["starts"] = LEAST_ENERGY[tendon]
     blob = json.dumps(rounded({"model": hashlib.sha256(full_arm.MODEL_FILE.read_bytes()).hexdigest(),
                                "tendon": tendon, "width_m": FOOTPRINT_M[tendon], "resolution": resolution,
-                               "surface": SURFACE.get(tendon, "wrap"), "rest": "pose", "material": material.as_dict(),
+                               "surface": surface(tendon), "rest": "pose", "material": material.as_dict(),
                                "solver": SETTINGS.as_dict(),
                                "axes": [np.asarray(a).tolist() for a in (grid_axes or axes(tendon))],
                                "code_version": CODE_VERSION, **rule}), sort_keys=True)
@@ -193,7 +198,7 @@ def reusable(path: Path, tendon: str, resolution: str, material: Material) -> di
     solved = ~arrays["unsolved"].reshape(-1)
     arm = arrays["moment_arm_m"].reshape(-1, 3).copy()
     arm[~solved] = np.nan  # as `solve_poses` leaves an unsolved pose; the new grid fills it from its own neighbours
-    return {"poses": _mesh(grid), "fem_m": arm, "mjcf_m": arrays["mjcf_moment_arm_m"].reshape(-1, 3),
+    return {"poses": mesh_poses(grid), "fem_m": arm, "mjcf_m": arrays["mjcf_moment_arm_m"].reshape(-1, 3),
             "tension_N": np.where(solved, arrays["tension_N"].reshape(-1), np.nan),
             "contact_N": np.where(solved, arrays["contact_N"].reshape(-1), np.nan), "converged": solved,
             "f0_N": meta["f0_N"]}
@@ -236,7 +241,7 @@ def solve_poses(tendon: str, poses: np.ndarray, resolution: str, progress=None,
     if tendon in LEAST_ENERGY:
         return least_energy(tendon, poses, resolution, progress, pose)
     return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose",
-                   surface=SURFACE.get(tendon, "wrap"))
+                   surface=surface(tendon))
 
 
 CHUNK = 20  # poses a worker process solves at a time (the sheet is set up anew for each chunk: ~0.02 s)
@@ -269,7 +274,7 @@ def least_energy(tendon: str, poses: np.ndarray, resolution: str, progress=None,
     tendon's LEAST_ENERGY, else all six; `FootprintSheet.solve_least_energy`). Unconverged where none converges."""
     starts = LEAST_ENERGY.get(tendon, 6) if starts is None else starts
     return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose",
-                   surface=SURFACE.get(tendon, "wrap"), offsets_deg=probe_offsets()[:starts])
+                   surface=surface(tendon), offsets_deg=probe_offsets()[:starts])
 
 
 def _neighbours_mean(field: np.ndarray, unsolved: np.ndarray) -> np.ndarray:
@@ -328,7 +333,7 @@ def _meta(tendon, resolution, digest, grid, seconds) -> dict:
     c = grid["moment_arm_m"] - grid["mjcf_moment_arm_m"]
     return {"tendon": tendon, "source": "fem footprint sheet, taut band (rest='pose')", "resolution": resolution,
             "footprint_width_m": FOOTPRINT_M[tendon],
-            "contact_surface": SURFACE_TEXT[SURFACE.get(tendon, "wrap")],
+            "contact_surface": SURFACE_TEXT[surface(tendon)],
             "model_file": "models/shoulder_full_task.xml", "f0_N": grid["f0_N"],
             "scheme": "F(L_MT(q), a) * (r_MJCF(q) + trilinear(moment_arm_m - mjcf_moment_arm_m))",
             "largest_correction_mm": dict(zip(full_arm.COORDINATES, (np.abs(c).max(axis=(0, 1, 2)) * 1e3).tolist())),
