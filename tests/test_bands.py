@@ -221,6 +221,37 @@ def test_a_refined_grid_reuses_the_poses_its_previous_table_solved(cell, monkeyp
     assert bands.reusable(bands.table_path("pec1", tmp_path), "pec1", "coarse", bands.Material()) is None
 
 
+def test_an_interrupted_build_resumes_from_the_poses_it_saved(cell, monkeypatch, tmp_path):
+    """A build interrupted after its first block of poses keeps them (the partial file, with its input hash); the
+    rerun solves only the rest, counts the resumed poses, removes the file and writes the table a build from nothing
+    writes; a partial file from other inputs is not used."""
+    monkeypatch.setattr(bands, "LEAST_ENERGY", ())  # the ramp alone: quick
+    monkeypatch.setattr(bands, "SAVE_EVERY", 3)
+    solved, real = [], bands.solve_poses
+
+    def interrupted(t, poses, *a, **k):
+        if solved:
+            raise KeyboardInterrupt
+        solved.append(len(poses))
+        return real(t, poses, *a, **k)
+    monkeypatch.setattr(bands, "solve_poses", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        bands.build(("pec1",), coarse=True, out=tmp_path, quiet=True)
+    partial = bands.partial_path("pec1", tmp_path)
+    assert partial.exists() and not bands.table_path("pec1", tmp_path).exists()
+    assert bands.resumed(partial, "another input hash") is None
+    monkeypatch.setattr(bands, "solve_poses", lambda t, poses, *a, **k: solved.append(len(poses)) or real(
+        t, poses, *a, **k))
+    meta = bands.build(("pec1",), coarse=True, out=tmp_path, quiet=True)["pec1"]
+    assert solved == [3, 3, 2] and meta["resumed_poses"] == 3 and meta["reused_poses"] == 0
+    assert not partial.exists()
+    monkeypatch.setattr(bands, "SAVE_EVERY", 200)
+    bands.build(("pec1",), coarse=True, out=tmp_path / "fresh", quiet=True)
+    resumed, fresh = (bands.BandTable(bands.table_path("pec1", d)).arrays for d in (tmp_path, tmp_path / "fresh"))
+    for k in ("moment_arm_m", "mjcf_moment_arm_m", "tension_N", "contact_N", "unsolved"):
+        np.testing.assert_allclose(resumed[k], fresh[k], rtol=1e-9, atol=1e-12)
+
+
 def test_isps_band_presses_on_the_humeral_head_and_the_others_on_their_wrap_objects(monkeypatch):
     """bands.SURFACE: isp's band is solved against the humeral head sphere (its table's hash says so); the other
     tendons keep the MJCF's wrap object, so their tables' hashes are as they were before SURFACE."""

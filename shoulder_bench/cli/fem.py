@@ -81,6 +81,8 @@ def _build_bands(args) -> int:
         how = "up to date, nothing to do" if m["cached"] else "solved"
         if not m["cached"] and m.get("reused_poses"):
             how += f" but {m['reused_poses']} poses taken from the table it replaces"
+        if not m["cached"] and m.get("resumed_poses"):
+            how += f", {m['resumed_poses']} poses from the interrupted build it resumes"
         big = ", ".join(f"{k} {v:.1f}" for k, v in m["largest_correction_mm"].items())
         print(f"{t}: {m['resolution']} band, {how} ({m['build_seconds']:.1f} s to solve; largest correction to the "
               f"MJCF arms, mm: {big}; tension {m['tension_range_N'][0]:.0f}-{m['tension_range_N'][1]:.0f} N)")

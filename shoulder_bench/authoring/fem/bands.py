@@ -38,7 +38,9 @@ Caching and resuming: each table carries its input hash (the model file's bytes,
 resolution, material, solver settings, the grid, CODE_VERSION); a build solves only tendons whose table is missing or
 stale, writes each atomically when done, and holds the folder's lock while it runs. A stale table built from the same
 inputs on another grid (a REFINE change) lends the poses it holds to the new grid (`reusable`), so a grid refined
-from it solves only its new poses. `jobs` processes solve a tendon's poses (and the verify's held-out ones, in
+from it solves only its new poses. While it solves, a build saves the poses solved so far every SAVE_EVERY
+(`partial_path`, with the input hash); an interrupted build resumes from them (`resumed`) and removes the file once
+the table is written. `jobs` processes solve a tendon's poses (and the verify's held-out ones, in
 `band_verify`), CHUNK at a time: each pose's equilibrium is its own, so the tables do not depend on it.
 """
 from __future__ import annotations
@@ -161,12 +163,13 @@ class BandTable:
 
 
 def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_arm.Pose | None = None,
-               jobs: int = 1, known: dict | None = None) -> dict:
+               jobs: int = 1, known: dict | None = None, save=None) -> dict:
     """The taut band of `tendon` at every grid pose: arrays on the grid's shape; RuntimeError naming the poses where
-    no equilibrium was found. `known` (`reusable`): poses already solved by the same rule and inputs, taken as they
-    are (each pose's equilibrium is its own); the rest are solved."""
+    no equilibrium was found. `known` (`reusable`, `resumed`): poses already solved by the same rule and inputs, taken
+    as they are (each pose's equilibrium is its own); the rest are solved, SAVE_EVERY at a time, each block's poses
+    handed to save(known so far, as `known`) if given (the build's checkpoint)."""
     shape, poses = tuple(len(a) for a in axes(tendon)), grid_poses(tendon)
-    r = _with_known(poses, known, lambda todo: solve_poses(tendon, todo, resolution, progress, pose, jobs))
+    r = _with_known(poses, known, lambda todo: _solve_saving(tendon, todo, resolution, progress, pose, jobs, save))
     arm, mjcf, unsolved = r["fem_m"], r["mjcf_m"], ~r["converged"]
     tension, contact = np.nan_to_num(r["tension_N"]), np.nan_to_num(r["contact_N"])  # 0 where unsolved
     if unsolved.sum() > MAX_UNSOLVED * len(poses):
@@ -181,6 +184,56 @@ def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_
 
 
 SOLVED = ("fem_m", "mjcf_m", "tension_N", "contact_N", "converged")  # what `solve_poses` gives per pose
+SAVE_EVERY = 200  # poses a build solves between checkpoints: at most this many are solved again after an interrupt
+
+
+def _solve_saving(tendon: str, poses: np.ndarray, resolution: str, progress, pose, jobs: int, save) -> dict:
+    """`solve_poses` of `poses`, SAVE_EVERY at a time when `save` is given, save(the poses solved so far as a `known`
+    dict) after each block."""
+    if save is None:
+        return solve_poses(tendon, poses, resolution, progress, pose, jobs)
+    parts = []
+    for i in range(0, len(poses), SAVE_EVERY):
+        parts.append(solve_poses(tendon, poses[i:i + SAVE_EVERY], resolution, progress, pose, jobs))
+        save(dict(_joined(parts), poses=poses[:i + SAVE_EVERY]))
+    return _joined(parts)
+
+
+def _joined(parts: list[dict]) -> dict:
+    """`solve_poses` results of consecutive blocks of poses as one (their per-pose arrays concatenated)."""
+    n = len(parts[0]["converged"])
+    per_pose = [k for k, v in parts[0].items() if isinstance(v, np.ndarray) and v.shape[:1] == (n,)]
+    return dict(parts[0], **{k: np.concatenate([p[k] for p in parts]) for k in per_pose})
+
+
+def partial_path(tendon: str, folder: Path) -> Path:
+    """Where a build keeps the poses of `tendon`'s table solved so far (removed when the table is written)."""
+    return folder / f"{tendon}_band.partial.npz"
+
+
+def resumed(path: Path, digest: str) -> dict | None:
+    """The poses an interrupted build saved at `path` (`partial_path`) as a `known` dict, if that build had the inputs
+    whose hash is `digest`; else None (missing, unreadable or from other inputs: solved anew)."""
+    try:
+        with np.load(path) as z:
+            if str(z["input_hash"]) != digest:
+                return None
+            return {k: z[k] for k in ("poses", "f0_N") + SOLVED}
+    except (OSError, ValueError, KeyError):
+        return None
+
+
+def _save_partial(path: Path, digest: str, known: dict) -> None:
+    with replacing(path) as tmp:
+        np.savez(tmp, input_hash=np.array(digest), **{k: known[k] for k in ("poses", "f0_N") + SOLVED})
+
+
+def merged(*knowns: dict | None) -> dict | None:
+    """`known` dicts (`reusable`, `resumed`; None skipped) as one; None if all are None."""
+    knowns = [k for k in knowns if k is not None]
+    if not knowns:
+        return None
+    return dict(knowns[0], **{k: np.concatenate([x[k] for x in knowns]) for k in ("poses",) + SOLVED})
 
 
 def reusable(path: Path, tendon: str, resolution: str, material: Material) -> dict | None:
@@ -252,12 +305,15 @@ def _solve_parallel(tendon: str, poses: np.ndarray, resolution: str, progress, j
     parts = [None] * len(chunks)
     with ProcessPoolExecutor(max_workers=jobs) as pool:
         futures = {pool.submit(solve_poses, tendon, c, resolution): k for k, c in enumerate(chunks)}
-        for done in as_completed(futures):
-            parts[futures[done]] = done.result()
-            if progress is not None:
-                progress(len(chunks[futures[done]]))
-    per_pose = [k for k, v in parts[0].items() if isinstance(v, np.ndarray) and v.shape[:1] == (len(chunks[0]),)]
-    return dict(parts[0], **{k: np.concatenate([p[k] for p in parts]) for k in per_pose})
+        try:
+            for done in as_completed(futures):
+                parts[futures[done]] = done.result()
+                if progress is not None:
+                    progress(len(chunks[futures[done]]))
+        except BaseException:  # an interrupt or a failed chunk: drop the chunks not started rather than wait for them
+            pool.shutdown(cancel_futures=True)
+            raise
+    return _joined(parts)
 
 
 def probe_offsets() -> np.ndarray:
@@ -317,19 +373,24 @@ def _build(folder: Path, tendons: tuple, resolution: str, jobs: int, quiet: bool
         if meta.get("input_hash") == digest:
             result[t] = dict(meta, cached=True)
         else:
-            todo.append((t, digest, reusable(table_path(t, folder), t, resolution, material)))
-    total = sum(int((_known_at(grid_poses(t), known) < 0).sum()) for t, _, known in todo)
+            todo.append((t, digest, reusable(table_path(t, folder), t, resolution, material),
+                         resumed(partial_path(t, folder), digest)))
+    total = sum(int((_known_at(grid_poses(t), merged(old, done)) < 0).sum()) for t, _, old, done in todo)
     with tqdm(total=total, desc="fem bands", unit="pose", disable=quiet or not todo) as bar:
-        for t, digest, known in todo:
-            t0 = time.perf_counter()
-            grid = solve_grid(t, resolution, bar.update, jobs=jobs, known=known)
-            meta = _meta(t, resolution, digest, grid, time.perf_counter() - t0)
+        for t, digest, old, done in todo:
+            t0, partial = time.perf_counter(), partial_path(t, folder)
+            grid = solve_grid(t, resolution, bar.update, jobs=jobs, known=merged(old, done),
+                              save=lambda new, p=partial, d=digest, done=done: _save_partial(p, d, merged(done, new)))
+            resumed_poses = 0 if done is None else len(done["poses"])
+            meta = _meta(t, resolution, digest, dict(grid, reused=grid["reused"] - resumed_poses),
+                         time.perf_counter() - t0, resumed_poses)
             _write(table_path(t, folder), grid, meta)
+            partial.unlink(missing_ok=True)
             result[t] = dict(meta, cached=False)
     return {t: result[t] for t in tendons}
 
 
-def _meta(tendon, resolution, digest, grid, seconds) -> dict:
+def _meta(tendon, resolution, digest, grid, seconds, resumed_poses=0) -> dict:
     c = grid["moment_arm_m"] - grid["mjcf_moment_arm_m"]
     return {"tendon": tendon, "source": "fem footprint sheet, taut band (rest='pose')", "resolution": resolution,
             "footprint_width_m": FOOTPRINT_M[tendon],
@@ -346,7 +407,7 @@ def _meta(tendon, resolution, digest, grid, seconds) -> dict:
             "unsolved_rule": "the correction: the mean of the solved neighbouring grid poses' (one step along each "
                              "coordinate)",
             "code_version": CODE_VERSION, "input_hash": digest, "build_seconds": round(seconds, 2),
-            "reused_poses": grid["reused"]}
+            "reused_poses": grid["reused"], "resumed_poses": resumed_poses}
 
 
 def _write(path: Path, grid: dict, meta: dict) -> None:
