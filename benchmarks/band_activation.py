@@ -6,7 +6,7 @@ The band tables hold one line of action per pose, the band's at a = 1, and `fem 
 only. At a lower activation the tendon's force F(L_MT, a) is smaller, but the band's line may move: this measures by
 how much. At N poses drawn from the tendon's table grid (`bands.grid_poses`, fixed seed) the band is solved at a = 1
 by its table's rule (the ramp, or `LEAST_ENERGY`'s least-energy equilibrium) and then, on the same branch, at each
-lower level of ACTIVATIONS (Newton from the equilibrium at the level above, `FootprintSheet.solve_from`); the ramp
+lower level of ACTIVATIONS (`footprint.continued`: Newton from the equilibrium at the level above); the ramp
 from rest to each level is solved too, to see whether it reaches the same equilibrium. At a grid pose the table's
 line is the band's at a = 1, so the scheme's error at level a is F(L_MT(q), a) |r_band(q, a) - r_band(q, 1)| per
 coordinate, reported as the verify reports its errors: in % of the tendon's peak |F(L_MT, 1) r_band| over its grid
@@ -19,7 +19,7 @@ import argparse
 import numpy as np
 
 from shoulder_bench import full_arm
-from shoulder_bench.authoring.fem.band_verify import full_force, peak_torque
+from shoulder_bench.authoring.fem.band_verify import peak_torque, tendon_force
 from shoulder_bench.authoring.fem.bands import (
     FOOTPRINT_TENDONS,
     LEAST_ENERGY,
@@ -28,7 +28,7 @@ from shoulder_bench.authoring.fem.bands import (
     probe_offsets,
     surface,
 )
-from shoulder_bench.authoring.fem.footprint import FootprintSheet
+from shoulder_bench.authoring.fem.footprint import FootprintSheet, continued
 from shoulder_bench.authoring.fem.solver import NoConvergence
 from shoulder_bench.authoring.fem.verify_full import HELD_OUT_TOL
 from shoulder_bench.band_lines import table_path
@@ -66,21 +66,21 @@ def main() -> None:
     for i, p in enumerate(poses):
         try:
             full = at_full(sheet, t, p)
-            levels, nodes = {}, full["nodes"]
-            for a in sorted(ACTIVATIONS, reverse=True):  # each level continued from the one above
-                levels[a] = sheet.solve_from(p, nodes, a)
-                nodes = levels[a]["nodes"]
         except NoConvergence:
+            full = None
+        down = sorted(ACTIVATIONS, reverse=True)  # each level continued from the one above
+        arms = continued(sheet, p, full["nodes"], down) if full is not None else np.full((len(down), 3), np.nan)
+        if np.isnan(arms).any():
             skipped += 1
             print(f"{tuple(p.tolist())}: no equilibrium at some level; skipped", flush=True)
             continue
-        for a, sol in levels.items():
-            d = np.abs(sol["moment_arm_m"] - full["moment_arm_m"])
+        for a, arm in zip(down, arms):
+            d = np.abs(arm - full["moment_arm_m"])
             force = law.force(lengths[i:i + 1], np.zeros((1, 1)), np.full((1, 1), a))[0, 0]
             moved[a].append(d * 1e3)
             error[a].append(force * d / peak * 100)
             try:
-                gap = np.abs(sheet.solve(p, a)["moment_arm_m"] - sol["moment_arm_m"]).max() * 1e3
+                gap = np.abs(sheet.solve(p, a)["moment_arm_m"] - arm).max() * 1e3
                 ramp_other[a] += int(gap > SAME_MM)
                 ramp_gap[a].append(gap)
             except NoConvergence:
@@ -90,7 +90,7 @@ def main() -> None:
               + "; ".join(" ".join(f"{x:.2f}" for x in moved[a][-1]) for a in ACTIVATIONS)
               + f" mm; largest error {worst:.2f} %", flush=True)
     solved = len(poses) - skipped
-    f1 = full_force(law, pose, t, poses)
+    f1 = tendon_force(law, pose, t, poses)
     print(f"\n{t}: {solved} of {len(poses)} grid poses solved at every level; F(L, 1) at the poses "
           f"{f1.min():.0f}-{f1.max():.0f} N; peak torque "
           + " / ".join(f"{x:.2f}" for x in peak) + " N m (plane / elevation / rotation)")

@@ -22,7 +22,7 @@ import numpy as np
 
 from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem import bands
-from shoulder_bench.authoring.fem.band_verify import full_force, peak_torque
+from shoulder_bench.authoring.fem.band_verify import peak_torque, tendon_force
 from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, BandTable, table_path
 from shoulder_bench.authoring.fem.footprint import SURFACES, compare
 from shoulder_bench.tendon_law import TendonLaw
@@ -66,7 +66,7 @@ def study(tendon: str, at, factors=((2, 2, 2),), starts: int = 0, surface: str |
         return np.array([solved[k][0] for k in keys]), np.array([solved[k][1] for k in keys])
 
     band, mjcf = solve(p[None])
-    at_p = full_force(law, pose, tendon, p[None])[0] * np.abs(mjcf[0] + table.correction(p)[0] - band[0]) / peak * 100
+    at_p = tendon_force(law, pose, tendon, p[None])[0] * np.abs(mjcf[0] + table.correction(p)[0] - band[0]) / peak * 100
     how = "the ramp" if not starts else f"least energy, {starts} start(s)"
     print(f"{tendon:<5} at {tuple(p.tolist())} deg ({how}, contact with the {surface}), error % of peak, plane / "
           "elevation / rotation: the shipped table at p " + " / ".join(f"{x:.2f}" for x in at_p), flush=True)
@@ -81,7 +81,7 @@ def study(tendon: str, at, factors=((2, 2, 2),), starts: int = 0, surface: str |
             print(f"  {'x'.join(map(str, k))}: no equilibrium at some pose; skipped")
             continue
         read = np.array([trilinear(c[i:i + 2, j:j + 2, m:m + 2], np.full(3, 0.5)) for i, j, m in cells])
-        err = full_force(law, pose, tendon, centres)[:, None] * np.abs(mjcf_c + read - band_c) / peak * 100
+        err = tendon_force(law, pose, tendon, centres)[:, None] * np.abs(mjcf_c + read - band_c) / peak * 100
         print(f"  step / {'x'.join(map(str, k))}: largest at its {len(centres)} cell centres "
               + " / ".join(f"{x:.2f}" for x in err.max(axis=0)), flush=True)
 
@@ -106,7 +106,7 @@ def branches(tendon: str, at) -> None:
             continue
         found.append((f"from {full_arm.COORDINATE_LABELS[full_arm.COORDINATES[k]]} {sign * quarter[k]:+g} deg",
                       sol, sol["energy_J"]))
-    force = full_force(law, pose, tendon, p[None])[0]
+    force = tendon_force(law, pose, tendon, p[None])[0]
     mjcf = pose.tendon_geometry(p, (tendon,))[1][0, 0]
     read = mjcf + table.correction(p)[0]
     print(f"{tendon} at {tuple(p.tolist())} deg: equilibria of the sheet built there (moment arms mm; energy J; the "

@@ -31,15 +31,25 @@ def test_a_band_table_is_built_cached_and_verified(cell, tmp_path, capsys):
     assert bands.build(("tmi",), coarse=True, out=tmp_path, quiet=True)["tmi"]["cached"] is True
     assert band_verify.verify(tmp_path, ("tmi",), poses=CENTRE, quiet=True) == 0
     assert "pass" in capsys.readouterr().out
+    # below a = 1 the band continued on its branch: its line moves a little, within the bound here
+    assert band_verify.verify(tmp_path, ("tmi",), poses=CENTRE, quiet=True, activations=(0.5, 1.0)) == 0
+    out = capsys.readouterr().out
+    assert "a = 1 " in out and "a = 0.5 " in out and "FAIL" not in out
+    band = bands.solve_poses("tmi", np.array(CENTRE), "coarse", activations=(0.5,))
+    moved = np.abs(band["fem_m_at"][0, 0] - band["fem_m"][0])
+    assert band["fem_m_at"].shape == (1, 1, 3) and 0 < moved.max() < 0.002
+    with pytest.raises(ValueError, match=r"\(0, 1\]"):
+        band_verify.verify(tmp_path, ("tmi",), poses=CENTRE, quiet=True, activations=(0.0,))
     # a table 1 mm off its band in the rotation arm (tmi's peak rotation arm is ~20 mm: ~5 %) fails
     path = bands.table_path("tmi", tmp_path)
     with np.load(path) as z:
         arrays = {k: z[k] for k in z.files}
     arrays["moment_arm_m"][..., 2] += 0.001
     np.savez(path, **arrays)
-    assert band_verify.verify(tmp_path, ("tmi",), poses=CENTRE, quiet=True) == 1
+    assert band_verify.verify(tmp_path, ("tmi",), poses=CENTRE, quiet=True, activations=(0.5,)) == 1
     out = capsys.readouterr().out
     assert "FAIL" in out and f"over at {CENTRE[0]} deg" in out  # the poses over, listed
+    assert "over the bound or unsolved: tmi, tmi at a = 0.5" in out  # half the force: still ~2.5 % of the peak
     meta = json.loads(str(np.load(path)["meta"]))
     assert meta["input_hash"] == bands.input_hash("tmi", "coarse", bands.Material())
 
@@ -61,6 +71,10 @@ def test_bad_requests_are_refused_before_any_solve(tmp_path, capsys):
         fem_main(["verify", "--bands", "--jobs", "0"])
     with pytest.raises(SystemExit, match="go with --bands"):
         fem_main(["verify", "--jobs", "2"])
+    with pytest.raises(SystemExit, match=r"activation levels lie in \(0, 1\]; got 1.5"):
+        fem_main(["verify", "--bands", "--activation", "1.5", "--held-out", "0"])
+    with pytest.raises(SystemExit, match="go with --bands"):
+        fem_main(["verify", "--activation", "0.5"])
 
 
 def test_held_out_0_checks_only_what_mujoco_applies(capsys):

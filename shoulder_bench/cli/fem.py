@@ -107,12 +107,12 @@ def _verify(args) -> int:
                              f"{', '.join(bands.FOOTPRINT_TENDONS)}")
         try:
             return band_verify.verify(folder=args.tables, tendons=args.tendon, interpolation=args.interpolation,
-                                      count=args.held_out, jobs=args.jobs)
+                                      count=args.held_out, jobs=args.jobs, activations=args.activation or ())
         except ValueError as exc:  # a missing or unreadable table
             raise SystemExit(f"shoulder-bench fem verify: error: {exc}") from None
-    if args.held_out is not None or args.tendon or args.interpolation != "linear" or args.jobs != 1:
-        raise SystemExit("shoulder-bench fem verify: error: --tendon, --held-out, --interpolation and --jobs go with "
-                         "--bands")
+    if args.held_out is not None or args.tendon or args.interpolation != "linear" or args.jobs != 1 or args.activation:
+        raise SystemExit("shoulder-bench fem verify: error: --tendon, --held-out, --interpolation, --jobs and "
+                         "--activation go with --bands")
     if args.full:
         from shoulder_bench.authoring.fem.verify_full import verify as verify_full
 
@@ -203,6 +203,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "table grid's, 588 on the tasks' grid; 0: none, only the check of what MuJoCo applies)")
     v.add_argument("--jobs", type=int, default=1, help="with --bands: this many processes re-solve the held-out "
                    "poses")
+    v.add_argument("--activation", type=float, action="append", metavar="A",
+                   help="with --bands: also check at this activation level in (0, 1] (repeatable), the band continued "
+                   "on its branch from a = 1 down to it (the tables hold its line at a = 1)")
     v.add_argument("--interpolation", choices=("linear", "cubic"), default="linear",
                    help="with --bands: the tables read trilinearly (the scheme) or by a tricubic spline")
     v.set_defaults(func=_verify)

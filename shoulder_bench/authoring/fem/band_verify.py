@@ -20,7 +20,8 @@ from shoulder_bench.authoring.fem.bands import (
 
 
 def verify(folder: Path | None = None, tendons=None, resolution: str | None = None, poses=None,
-           quiet: bool = False, interpolation: str = "linear", count: int | None = None, jobs: int = 1) -> int:
+           quiet: bool = False, interpolation: str = "linear", count: int | None = None, jobs: int = 1,
+           activations=()) -> int:
     """Two sections, each able to fail (exit status 1):
     1. The taut band re-solved at held-out poses against the scheme: by default all of each tendon's grid's
        (`held_out`: halfway between its poses in every coordinate); `count` N: N of them drawn with a fixed seed
@@ -30,7 +31,10 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
        force is largest: the band's line moves a little at lower levels, measured apart by
        `benchmarks/band_activation.py`); bound `verify_full.HELD_OUT_TOL`. The band solved as the table's was
        (`solve_poses`, in `jobs` processes). resolution: the sheets' (default: the table's own). interpolation: the
-       tables' (`BandTable`).
+       tables' (`BandTable`). activations (levels in (0, 1)): the same check at each, with the band continued on the
+       same branch from its a = 1 equilibrium down to it (`footprint.continued`): the error F(L_MT(q), a) |r_MJCF(q)
+       + c(q) - r_band(q, a)|, in % of the same peak (the tables hold one line per pose, the band's at a = 1);
+       a pose where the continuation finds no equilibrium counts as unsolved.
     2. What MuJoCo applies with the tables (the task option line_of_action="band", `band_lines`): each tendon alone,
        at every grid pose and activation level, against F(L(q), a) r_band(q) (`verify_full.applied_vs_fem`); bound
        `verify_full.APPLIED_TOL`."""
@@ -39,6 +43,9 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
     from shoulder_bench.authoring.fem.verify_full import APPLIED_TOL, HELD_OUT_TOL, applied_vs_fem
     from shoulder_bench.tendon_law import TendonLaw
 
+    if any(not 0 < a <= 1 for a in activations):
+        raise ValueError(f"activation levels lie in (0, 1]; got {', '.join(f'{a:g}' for a in activations)}")
+    below = tuple(sorted({float(a) for a in activations if a < 1}, reverse=True))  # continued from a = 1 down
     folder = Path(folder or full_arm.TABLE_FOLDER)
     names = [t for t in (tendons or FOOTPRINT_TENDONS) if tendons or table_path(t, folder).exists()]
     if not names:
@@ -54,8 +61,8 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
         return cells(min(count, len(every)), refine=refinement(t))[0] if count else every[:0]
 
     pose, failed, checked = full_arm.Pose(), [], False
-    print(f"band tables in {folder} ({interpolation}): held-out poses re-solved per tendon; error at a = 1 in % of "
-          f"the tendon's peak |torque| over its grid (bound {HELD_OUT_TOL * 100:g} %): plane, elevation, rotation")
+    print(f"band tables in {folder} ({interpolation}): held-out poses re-solved per tendon; error at activation a in "
+          f"% of the tendon's peak |torque| over its grid (bound {HELD_OUT_TOL * 100:g} %): plane, elevation, rotation")
     for t in names:
         held = held_poses(t)
         if not len(held):
@@ -66,27 +73,39 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
         law = TendonLaw.load("fem", tendons=(t,))
         peak = peak_torque(table, law, pose)
         with tqdm(total=len(held), desc=f"verify {t}", unit="pose", disable=quiet, leave=False) as bar:
-            band = solve_poses(t, held, resolution or table.meta["resolution"], bar.update, pose, jobs)
-        unsolved = int((~band["converged"]).sum())
-        err = np.abs(band["mjcf_m"] + table.correction(held) - band["fem_m"])  # NaN where unsolved
-        pct = full_force(law, pose, t, held)[:, None] * err / peak * 100
-        worst = np.nanmax(pct, axis=0)
-        ok = bool(np.all(worst <= HELD_OUT_TOL * 100)) and unsolved == 0
-        at = held[int(np.nanargmax(pct.max(axis=1)))]
-        over = np.nan_to_num(pct).max(axis=1) > HELD_OUT_TOL * 100
-        print(f"{t:<5} {len(held) - unsolved}/{len(held)} solved  largest " + " ".join(f"{x:6.2f}" for x in worst)
-              + f" %  (at {tuple(float(x) for x in at)} deg; {int(over.sum())} poses over the bound)  "
-              + ("pass" if ok else "FAIL"))
-        for p, e in list(zip(held[over], pct[over]))[:SHOW_OVER]:
-            print(f"      over at {tuple(float(x) for x in p)} deg: " + " ".join(f"{x:.2f}" for x in e) + " %")
-        if not ok:
-            failed.append(t)
+            band = solve_poses(t, held, resolution or table.meta["resolution"], bar.update, pose, jobs, below)
+        line = band["mjcf_m"] + table.correction(held)
+        for a, arms in zip((1.0,) + below, [band["fem_m"]] + list(band["fem_m_at"].transpose(1, 0, 2))):
+            if not check(t, a, held, tendon_force(law, pose, t, held, a)[:, None] * np.abs(line - arms) / peak * 100):
+                failed.append(t if a == 1.0 else f"{t} at a = {a:g}")
     if checked:
         print("all band tables within the bound" if not failed else f"over the bound or unsolved: {', '.join(failed)}")
     applied = report([(f"MuJoCo's applied generalised force with the band corrections vs the FEM band's, every grid "
                        f"pose and level (pass: <= {100 * APPLIED_TOL:g} % of the tendon's peak |torque| in that "
                        "coordinate)", applied_vs_fem(folder, "band", names))])
     return 1 if failed or applied else 0
+
+
+def check(tendon: str, a: float, held: np.ndarray, pct: np.ndarray) -> bool:
+    """Print one tendon's held-out errors at activation `a` (`pct` (P, 3) % of its peak, NaN where unsolved) and the
+    poses over the bound; True if none is over it and every pose was solved."""
+    from shoulder_bench.authoring.fem.verify_full import HELD_OUT_TOL
+
+    unsolved = int(np.isnan(pct).any(axis=1).sum())
+    if unsolved == len(held):
+        print(f"{tendon:<5} a = {a:<4g} 0/{len(held)} solved  FAIL")
+        return False
+    worst = np.nanmax(pct, axis=0)
+    ok = bool(np.all(worst <= HELD_OUT_TOL * 100)) and unsolved == 0
+    at = held[int(np.nanargmax(np.nanmax(pct, axis=1)))]
+    over = np.nan_to_num(pct).max(axis=1) > HELD_OUT_TOL * 100
+    print(f"{tendon:<5} a = {a:<4g} {len(held) - unsolved}/{len(held)} solved  largest "
+          + " ".join(f"{x:6.2f}" for x in worst)
+          + f" %  (at {tuple(float(x) for x in at)} deg; {int(over.sum())} poses over the bound)  "
+          + ("pass" if ok else "FAIL"))
+    for p, e in list(zip(held[over], pct[over]))[:SHOW_OVER]:
+        print(f"      over at {tuple(float(x) for x in p)} deg: " + " ".join(f"{x:.2f}" for x in e) + " %")
+    return ok
 
 
 SHOW_OVER = 10  # the verify lists at most this many of a tendon's held-out poses over the bound
@@ -96,10 +115,10 @@ def peak_torque(table: BandTable, law, pose: full_arm.Pose) -> np.ndarray:
     """(3,) N m: the tendon's peak |F(L_MT, 1) r_band| over its table's grid poses, the scale of the verify's errors."""
     arms = table.arrays["moment_arm_m"].reshape(-1, 3)
     poses = mesh_poses([table.arrays[k] for k in ("plane_deg", "elevation_deg", "rotation_deg")])
-    return np.abs(full_force(law, pose, table.tendon, poses)[:, None] * arms).max(axis=0)
+    return np.abs(tendon_force(law, pose, table.tendon, poses)[:, None] * arms).max(axis=0)
 
 
-def full_force(law, pose: full_arm.Pose, tendon: str, poses: np.ndarray) -> np.ndarray:
-    """(P,) N: the length-keyed law's force of `tendon` at full activation, at rest, at `poses` (deg)."""
+def tendon_force(law, pose: full_arm.Pose, tendon: str, poses: np.ndarray, activation: float = 1.0) -> np.ndarray:
+    """(P,) N: the length-keyed law's force of `tendon` at `activation`, at rest, at `poses` (deg)."""
     n = len(poses)
-    return law.force(pose.tendon_geometry(poses, (tendon,))[0], np.zeros((n, 1)), np.ones((n, 1)))[:, 0]
+    return law.force(pose.tendon_geometry(poses, (tendon,))[0], np.zeros((n, 1)), np.full((n, 1), activation))[:, 0]

@@ -216,9 +216,7 @@ def resumed(path: Path, digest: str) -> dict | None:
     whose hash is `digest`; else None (missing, unreadable or from other inputs: solved anew)."""
     try:
         with np.load(path) as z:
-            if str(z["input_hash"]) != digest:
-                return None
-            return {k: z[k] for k in ("poses", "f0_N") + SOLVED}
+            return {k: z[k] for k in ("poses", "f0_N") + SOLVED} if str(z["input_hash"]) == digest else None
     except (OSError, ValueError, KeyError):
         return None
 
@@ -231,9 +229,8 @@ def _save_partial(path: Path, digest: str, known: dict) -> None:
 def merged(*knowns: dict | None) -> dict | None:
     """`known` dicts (`reusable`, `resumed`; None skipped) as one; None if all are None."""
     knowns = [k for k in knowns if k is not None]
-    if not knowns:
-        return None
-    return dict(knowns[0], **{k: np.concatenate([x[k] for x in knowns]) for k in ("poses",) + SOLVED})
+    return dict(knowns[0], **{k: np.concatenate([x[k] for x in knowns]) for k in ("poses",) + SOLVED}) if knowns \
+        else None
 
 
 def reusable(path: Path, tendon: str, resolution: str, material: Material) -> dict | None:
@@ -283,28 +280,30 @@ def _known_at(poses: np.ndarray, known: dict | None) -> np.ndarray:
 
 
 def solve_poses(tendon: str, poses: np.ndarray, resolution: str, progress=None,
-                pose: full_arm.Pose | None = None, jobs: int = 1) -> dict:
+                pose: full_arm.Pose | None = None, jobs: int = 1, activations=()) -> dict:
     """The taut band of `tendon` at `poses` (P, 3) deg, as `footprint.compare` returns it (rest="pose"): the ramp's
     equilibrium, or for LEAST_ENERGY tendons `least_energy`'s. `jobs` > 1: that many processes, each solving CHUNK
     poses at a time on a model it poses itself (`pose` unused; each pose's equilibrium is its own, so the result is
-    the same); progress(n) after n poses."""
+    the same); progress(n) after n poses. activations: also the band continued on the same branch to these levels
+    below 1 (`footprint.compare`'s "fem_m_at")."""
     poses = np.atleast_2d(np.asarray(poses, float))
     if jobs > 1 and len(poses) > CHUNK:
-        return _solve_parallel(tendon, poses, resolution, progress, jobs)
+        return _solve_parallel(tendon, poses, resolution, progress, jobs, activations)
     if tendon in LEAST_ENERGY:
-        return least_energy(tendon, poses, resolution, progress, pose)
+        return least_energy(tendon, poses, resolution, progress, pose, activations=activations)
     return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose",
-                   surface=surface(tendon))
+                   surface=surface(tendon), activations=activations)
 
 
 CHUNK = 20  # poses a worker process solves at a time (the sheet is set up anew for each chunk: ~0.02 s)
 
 
-def _solve_parallel(tendon: str, poses: np.ndarray, resolution: str, progress, jobs: int) -> dict:
+def _solve_parallel(tendon: str, poses: np.ndarray, resolution: str, progress, jobs: int, activations) -> dict:
     chunks = [poses[i:i + CHUNK] for i in range(0, len(poses), CHUNK)]
     parts = [None] * len(chunks)
     with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = {pool.submit(solve_poses, tendon, c, resolution): k for k, c in enumerate(chunks)}
+        futures = {pool.submit(solve_poses, tendon, c, resolution, None, None, 1, activations): k
+                   for k, c in enumerate(chunks)}
         try:
             for done in as_completed(futures):
                 parts[futures[done]] = done.result()
@@ -324,13 +323,13 @@ def probe_offsets() -> np.ndarray:
 
 
 def least_energy(tendon: str, poses: np.ndarray, resolution: str, progress=None,
-                 pose: full_arm.Pose | None = None, starts: int | None = None) -> dict:
+                 pose: full_arm.Pose | None = None, starts: int | None = None, activations=()) -> dict:
     """`compare`'s arrays (rest="pose") with, at each pose p, the least-energy equilibrium among the ramp's at p and
     those Newton reaches at p from the ramp's at p + each of the first `starts` of `probe_offsets` (default: the
     tendon's LEAST_ENERGY, else all six; `FootprintSheet.solve_least_energy`). Unconverged where none converges."""
     starts = LEAST_ENERGY.get(tendon, 6) if starts is None else starts
     return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose",
-                   surface=surface(tendon), offsets_deg=probe_offsets()[:starts])
+                   surface=surface(tendon), offsets_deg=probe_offsets()[:starts], activations=activations)
 
 
 def _neighbours_mean(field: np.ndarray, unsolved: np.ndarray) -> np.ndarray:
