@@ -302,7 +302,7 @@ def _solve_parallel(tendon: str, poses: np.ndarray, resolution: str, progress, j
     chunks = [poses[i:i + CHUNK] for i in range(0, len(poses), CHUNK)]
     parts = [None] * len(chunks)
     with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = {pool.submit(solve_poses, tendon, c, resolution, None, None, 1, activations): k
+        futures = {pool.submit(solve_poses, tendon, c, resolution, activations=activations): k
                    for k, c in enumerate(chunks)}
         try:
             for done in as_completed(futures):
