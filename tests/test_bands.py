@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 
 from shoulder_bench.authoring.fem import band_verify, bands
+from shoulder_bench.authoring.fem.footprint import FootprintSheet
+from shoulder_bench.authoring.fem.solver import NoConvergence
 from shoulder_bench.cli.fem import main as fem_main
 
 # one cell of the tasks' grid (its steps: plane 15, elevation 10, rotation 15 deg) and its centre
@@ -19,7 +21,7 @@ def cell(monkeypatch):
     monkeypatch.setattr(bands, "axes", lambda tendon=None: [a.copy() for a in AXES])
 
 
-def test_a_band_table_is_built_cached_and_verified(cell, tmp_path, capsys):
+def test_a_band_table_is_built_cached_and_verified(cell, monkeypatch, tmp_path, capsys):
     metas = bands.build(("tmi",), coarse=True, out=tmp_path, quiet=True)
     assert metas["tmi"]["cached"] is False and metas["tmi"]["resolution"] == "coarse"
     table = bands.BandTable(bands.table_path("tmi", tmp_path))
@@ -40,6 +42,19 @@ def test_a_band_table_is_built_cached_and_verified(cell, tmp_path, capsys):
     assert band["fem_m_at"].shape == (1, 1, 3) and 0 < moved.max() < 0.002
     with pytest.raises(ValueError, match=r"\(0, 1\]"):
         band_verify.verify(tmp_path, ("tmi",), poses=CENTRE, quiet=True, activations=(0.0,))
+    # a pose whose band finds no equilibrium on its way down is unsolved at that level, listed, and fails
+    real = FootprintSheet.solve_from
+
+    def stuck_below_1_at_the_centre(sheet, pose_deg, start, activation=1.0):
+        if activation < 1 and np.allclose(pose_deg, CENTRE[0]):
+            raise NoConvergence("stuck")
+        return real(sheet, pose_deg, start, activation)
+    monkeypatch.setattr(FootprintSheet, "solve_from", stuck_below_1_at_the_centre)
+    two = CENTRE + [(32.5, 42.5, 2.5)]
+    assert band_verify.verify(tmp_path, ("tmi",), poses=two, quiet=True, activations=(0.5,)) == 1
+    out = capsys.readouterr().out
+    assert "a = 0.5  1/2 solved" in out and f"unsolved at {CENTRE[0]} deg" in out and "a = 1    2/2 solved" in out
+    monkeypatch.setattr(FootprintSheet, "solve_from", real)
     # a table 1 mm off its band in the rotation arm (tmi's peak rotation arm is ~20 mm: ~5 %) fails
     path = bands.table_path("tmi", tmp_path)
     with np.load(path) as z:

@@ -97,7 +97,7 @@ def check(tendon: str, a: float, held: np.ndarray, pct: np.ndarray) -> bool:
         return False
     worst = np.nanmax(pct, axis=0)
     ok = bool(np.all(worst <= HELD_OUT_TOL * 100)) and unsolved == 0
-    at = held[int(np.nanargmax(np.nanmax(pct, axis=1)))]
+    at = held[int(np.argmax(np.nan_to_num(pct, nan=-np.inf).max(axis=1)))]
     over = np.nan_to_num(pct).max(axis=1) > HELD_OUT_TOL * 100
     print(f"{tendon:<5} a = {a:<4g} {len(held) - unsolved}/{len(held)} solved  largest "
           + " ".join(f"{x:6.2f}" for x in worst)
@@ -105,6 +105,8 @@ def check(tendon: str, a: float, held: np.ndarray, pct: np.ndarray) -> bool:
           + ("pass" if ok else "FAIL"))
     for p, e in list(zip(held[over], pct[over]))[:SHOW_OVER]:
         print(f"      over at {tuple(float(x) for x in p)} deg: " + " ".join(f"{x:.2f}" for x in e) + " %")
+    for p in held[np.isnan(pct).any(axis=1)][:SHOW_OVER]:
+        print(f"      unsolved at {tuple(float(x) for x in p)} deg")
     return ok
 
 
