@@ -6,7 +6,7 @@ The band tables hold one line of action per pose, the band's at a = 1, and `fem 
 only. At a lower activation the tendon's force F(L_MT, a) is smaller, but the band's line may move: this measures by
 how much. At N poses drawn from the tendon's table grid (`bands.grid_poses`, fixed seed) the band is solved at a = 1
 by its table's rule (the ramp, or `LEAST_ENERGY`'s least-energy equilibrium) and then, on the same branch, at each
-lower level of ACTIVATIONS (`footprint.continued`: Newton from the equilibrium at the level above); the ramp
+lower level of ACTIVATIONS (`footprint_compare.continued`: Newton from the equilibrium at the level above); the ramp
 from rest to each level is solved too, to see whether it reaches the same equilibrium. At a grid pose the table's
 line is the band's at a = 1, so the scheme's error at level a is F(L_MT(q), a) |r_band(q, a) - r_band(q, 1)| per
 coordinate, reported as the verify reports its errors: in % of the tendon's peak |F(L_MT, 1) r_band| over its grid
@@ -28,7 +28,8 @@ from shoulder_bench.authoring.fem.bands import (
     probe_offsets,
     surface,
 )
-from shoulder_bench.authoring.fem.footprint import FootprintSheet, continued
+from shoulder_bench.authoring.fem.footprint import FootprintSheet
+from shoulder_bench.authoring.fem.footprint_compare import continued
 from shoulder_bench.authoring.fem.solver import NoConvergence
 from shoulder_bench.authoring.fem.verify_full import HELD_OUT_TOL
 from shoulder_bench.band_lines import table_path

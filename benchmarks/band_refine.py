@@ -24,7 +24,8 @@ from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem import bands
 from shoulder_bench.authoring.fem.band_verify import peak_torque, tendon_force
 from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, BandTable, table_path
-from shoulder_bench.authoring.fem.footprint import SURFACES, compare
+from shoulder_bench.authoring.fem.footprint import SURFACES
+from shoulder_bench.authoring.fem.footprint_compare import compare
 from shoulder_bench.tendon_law import TendonLaw
 
 # each tendon's largest error of `fem verify --bands` on the first tables (588 held-out poses; docs/fem.md)

@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from shoulder_bench.authoring.fem import band_verify, bands
+from shoulder_bench.authoring.fem import band_verify, bands, footprint_compare
 from shoulder_bench.authoring.fem.footprint import FootprintSheet
 from shoulder_bench.authoring.fem.solver import NoConvergence
 from shoulder_bench.cli.fem import main as fem_main
@@ -162,7 +162,7 @@ def test_tendons_build_in_parallel_processes(cell, tmp_path):
 def test_least_energy_takes_tmis_lower_equilibrium_where_the_ramp_lands_on_the_higher():
     """At (37.5, 45, -22.5) deg tmi's activated sheet has two equilibria (docs/fem.md "What each miss is"): the ramp
     from rest lands on the one 3 mJ higher (rotation arm -20.70 mm); least_energy finds the other (-21.30 mm)."""
-    from shoulder_bench.authoring.fem.footprint import compare
+    from shoulder_bench.authoring.fem.footprint_compare import compare
 
     p = np.array([[37.5, 45.0, -22.5]])
     ramp = compare("tmi", p, "full", rest="pose")
@@ -279,6 +279,21 @@ def test_an_interrupted_build_resumes_from_the_poses_it_saved(cell, monkeypatch,
     resumed, fresh = (bands.BandTable(bands.table_path("pec1", d)).arrays for d in (tmp_path, tmp_path / "fresh"))
     for k in ("moment_arm_m", "mjcf_moment_arm_m", "tension_N", "contact_N", "unsolved"):
         np.testing.assert_allclose(resumed[k], fresh[k], rtol=1e-9, atol=1e-12)
+
+
+def test_the_continuation_down_in_activation_halves_a_step_newton_cannot_take():
+    """`footprint_compare.continued`: a step Newton fails on is taken in halves (at most HALVINGS times); beyond that
+    the level and those below it are NaN. A stand-in sheet whose Newton converges only over steps of at most 0.1."""
+    class Sheet:
+        def solve_from(self, pose_deg, start, activation):
+            if abs(activation - start) > 0.1 + 1e-12:
+                raise NoConvergence("step too long")
+            return {"moment_arm_m": np.full(3, activation), "nodes": activation}
+
+    arms = footprint_compare.continued(Sheet(), (0, 0, 0), 1.0, (0.75, 0.5))  # steps of 0.25: halved twice (0.0625)
+    np.testing.assert_allclose(arms, [[0.75] * 3, [0.5] * 3])
+    arms = footprint_compare.continued(Sheet(), (0, 0, 0), 1.0, (0.9, 0.0))  # 0.9 at 1/8 of the step: 0.1125, too long
+    assert np.allclose(arms[0], 0.9) and np.isnan(arms[1]).all()
 
 
 def test_isps_band_presses_on_the_humeral_head_and_the_others_on_their_wrap_objects(monkeypatch):

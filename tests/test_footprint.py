@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from shoulder_bench.authoring.fem import footprint as F
+from shoulder_bench.authoring.fem.footprint_compare import compare
 from shoulder_bench.cli.fem import main as fem_main
 
 POSES = [(30.0, 45.0, 0.0), (0.0, 10.0, 0.0), (60.0, 100.0, 30.0), (90.0, 130.0, -40.0)]
@@ -187,7 +188,7 @@ def test_solved_over_activations_the_full_activation_arms_are_the_reports(pose):
     res = solve_levels("tmi", poses, "coarse", "wrap", pose)
     one = LEVELS.index(1.0)
     arms = res["torque_Nm"][:, one] / res["tension_N"][:, one, None]
-    np.testing.assert_allclose(arms, F.compare("tmi", poses, "coarse", pose=pose)["fem_m"], atol=1e-9)
+    np.testing.assert_allclose(arms, compare("tmi", poses, "coarse", pose=pose)["fem_m"], atol=1e-9)
     m = measures(res)
     assert m["solved"] == 2 and all(np.isfinite(v) for v in m["linearity_pct"]["0.5"].values())
 
@@ -341,9 +342,9 @@ def test_the_taut_bands_grid_check_scores_its_moment_arms(pose, monkeypatch, tmp
     """check_taut tables the band's moment arms, the MJCF arms and the band's correction to them: a band that is the
     MJCF arm (not trilinear) plus a trilinear field scores 0 on the correction only; bent, it scores on every one.
     The run writes footprint_grid_taut.json and its npz; --activation with the taut band is refused."""
-    from shoulder_bench.authoring.fem import footprint_grid
+    from shoulder_bench.authoring.fem import footprint_compare, footprint_grid
 
-    class Band:  # what `footprint.compare` reads of a sheet
+    class Band:  # what `footprint_compare.compare` reads of a sheet
         f0, width, ns, nt, reference_length = 100.0, 0.03, 3, 3, 1.0
 
         def __init__(self, *args, bend=0.0, **kw):
@@ -365,7 +366,7 @@ def test_the_taut_bands_grid_check_scores_its_moment_arms(pose, monkeypatch, tmp
             return {"moment_arm_m": arm, "tension_N": 80.0, "contact_N": 0.0}
 
     for bend, zero in ((0.0, True), (0.002, False)):
-        monkeypatch.setattr(F, "FootprintSheet", lambda *a, bend=bend, **k: Band(bend=bend))
+        monkeypatch.setattr(footprint_compare, "FootprintSheet", lambda *a, bend=bend, **k: Band(bend=bend))
         r = footprint_grid.check_taut("tmi", 4, pose=pose)
         assert r["checked"] == 4 and (max(r["correction_a1"].values()) < 1e-9) == zero
         assert min(r["arm_a1"].values()) > 0.01 and min(r["mjcf_a1"].values()) > 0.01

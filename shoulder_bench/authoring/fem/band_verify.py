@@ -32,9 +32,9 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
        `benchmarks/band_activation.py`); bound `verify_full.HELD_OUT_TOL`. The band solved as the table's was
        (`solve_poses`, in `jobs` processes). resolution: the sheets' (default: the table's own). interpolation: the
        tables' (`BandTable`). activations (levels in (0, 1)): the same check at each, with the band continued on the
-       same branch from its a = 1 equilibrium down to it (`footprint.continued`): the error F(L_MT(q), a) |r_MJCF(q)
-       + c(q) - r_band(q, a)|, in % of the same peak (the tables hold one line per pose, the band's at a = 1);
-       a pose where the continuation finds no equilibrium counts as unsolved.
+       same branch from its a = 1 equilibrium down to it (`footprint_compare.continued`): the error
+       F(L_MT(q), a) |r_MJCF(q) + c(q) - r_band(q, a)|, in % of the same peak (the tables hold one line per pose, the
+       band's at a = 1); a pose where the continuation finds no equilibrium counts as unsolved.
     2. What MuJoCo applies with the tables (the task option line_of_action="band", `band_lines`): each tendon alone,
        at every grid pose and activation level, against F(L(q), a) r_band(q) (`verify_full.applied_vs_fem`); bound
        `verify_full.APPLIED_TOL`."""

@@ -56,7 +56,8 @@ from tqdm import tqdm
 
 from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem import rounded
-from shoulder_bench.authoring.fem.footprint import FOOTPRINT_M, SETTINGS, compare
+from shoulder_bench.authoring.fem.footprint import FOOTPRINT_M, SETTINGS
+from shoulder_bench.authoring.fem.footprint_compare import compare
 from shoulder_bench.authoring.fem.full import locked_folder
 from shoulder_bench.authoring.fem.material import Material
 from shoulder_bench.band_lines import BAND_TENDONS, read_table, table_path
@@ -281,11 +282,11 @@ def _known_at(poses: np.ndarray, known: dict | None) -> np.ndarray:
 
 def solve_poses(tendon: str, poses: np.ndarray, resolution: str, progress=None,
                 pose: full_arm.Pose | None = None, jobs: int = 1, activations=()) -> dict:
-    """The taut band of `tendon` at `poses` (P, 3) deg, as `footprint.compare` returns it (rest="pose"): the ramp's
-    equilibrium, or for LEAST_ENERGY tendons `least_energy`'s. `jobs` > 1: that many processes, each solving CHUNK
-    poses at a time on a model it poses itself (`pose` unused; each pose's equilibrium is its own, so the result is
-    the same); progress(n) after n poses. activations: also the band continued on the same branch to these levels
-    below 1 (`footprint.compare`'s "fem_m_at")."""
+    """The taut band of `tendon` at `poses` (P, 3) deg, as `footprint_compare.compare` returns it (rest="pose"): the
+    ramp's equilibrium, or for LEAST_ENERGY tendons `least_energy`'s. `jobs` > 1: that many processes, each solving
+    CHUNK poses at a time on a model it poses itself (`pose` unused; each pose's equilibrium is its own, so the result
+    is the same); progress(n) after n poses. activations: also the band continued on the same branch to these levels
+    below 1 (`footprint_compare.compare`'s "fem_m_at")."""
     poses = np.atleast_2d(np.asarray(poses, float))
     if jobs > 1 and len(poses) > CHUNK:
         return _solve_parallel(tendon, poses, resolution, progress, jobs, activations)

@@ -39,8 +39,8 @@ from pathlib import Path
 import numpy as np
 
 from shoulder_bench import full_arm
-from shoulder_bench.authoring.fem.footprint import compare
 from shoulder_bench.authoring.fem.footprint_activation import solve_levels
+from shoulder_bench.authoring.fem.footprint_compare import compare
 from shoulder_bench.authoring.fem.footprint_report import each_tendon, output_stem, write_json
 from shoulder_bench.authoring.fem.verify_full import HELD_OUT_TOL, held_out_poses
 from shoulder_bench.muscle import replacing

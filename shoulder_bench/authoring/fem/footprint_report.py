@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from shoulder_bench.authoring.fem.footprint import TENDONS, compare
+from shoulder_bench.authoring.fem.footprint import TENDONS
+from shoulder_bench.authoring.fem.footprint_compare import compare
 from shoulder_bench.full_arm import COORDINATE_LABELS, COORDINATES, Pose
 from shoulder_bench.muscle import replacing
 

@@ -1,0 +1,75 @@
+"""The footprint sheets solved at many poses (`compare`): the loop the footprint commands share (the report, the taut
+band's grid check, the band tables and their verify), and the band continued down in activation (`continued`)."""
+from __future__ import annotations
+
+import numpy as np
+
+from shoulder_bench import full_arm
+from shoulder_bench.authoring.fem.footprint import FootprintSheet
+from shoulder_bench.authoring.fem.solver import NoConvergence
+
+HALVINGS = 3  # a continuation step where Newton fails is halved, at most this many times (down to 1/8 of it)
+
+
+def continued(sheet: FootprintSheet, pose_deg, nodes: np.ndarray, activations) -> np.ndarray:
+    """(L, 3) m: the moment arms of the equilibrium `nodes` (at `pose_deg`, a = 1) continued on the same branch down
+    to each of `activations` (descending; Newton from the level above, `FootprintSheet.solve_from`, the step halved
+    where it fails, HALVINGS times at most); NaN from the level where it still fails."""
+    arms, above = np.full((len(activations), 3), np.nan), 1.0
+    for i, a in enumerate(activations):
+        try:
+            sol = _step(sheet, pose_deg, nodes, above, a, HALVINGS)
+        except NoConvergence:
+            break
+        arms[i], nodes, above = sol["moment_arm_m"], sol["nodes"], a
+    return arms
+
+
+def _step(sheet: FootprintSheet, pose_deg, nodes: np.ndarray, a_from: float, a_to: float, halvings: int) -> dict:
+    """`solve_from` at `a_to` from the equilibrium `nodes` at `a_from`; where Newton fails, through the midpoint."""
+    try:
+        return sheet.solve_from(pose_deg, nodes, a_to)
+    except NoConvergence:
+        if halvings == 0:
+            raise
+        mid = (a_from + a_to) / 2
+        half = _step(sheet, pose_deg, nodes, a_from, mid, halvings - 1)
+        return _step(sheet, pose_deg, half["nodes"], mid, a_to, halvings - 1)
+
+
+def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None = None, progress=None,
+            surface: str = "wrap", pose: full_arm.Pose | None = None, rest: str = "reference",
+            offsets_deg=None, activations=()) -> dict:
+    """FEM vs MJCF moment arms of `tendon` at `poses_deg` (P, 3): arrays (P, 3) in m (NaN where the sheet found no
+    equilibrium: `converged`), the tensions and contact forces (N), the central fibre's stretch (its initial shape's
+    length over the reference's), its F0 (N). progress: called after each pose. surface: the sheet's contact surface
+    (`SURFACES`). pose: the model posed (default: the task model, compiled anew). rest: the sheet's stress-free
+    state (`RESTS`). offsets_deg (K, 3): each pose's least-energy equilibrium from those starts
+    (`FootprintSheet.solve_least_energy`) instead of the ramp's. activations (levels below 1, descending): the
+    equilibrium continued on the same branch from a = 1 to each (Newton from the level above, `solve_from`; rest="pose"
+    only), its arms in "fem_m_at" (P, L, 3), NaN where Newton fails. A ValueError if the tendon has no sheet
+    (`FootprintSheet`). The footprint commands' loop over poses (the report, the taut band's grid check, the band
+    tables and their verify)."""
+    sheet = FootprintSheet(tendon, resolution, width_m, pose=pose, surface=surface, rest=rest)
+    poses = np.atleast_2d(np.asarray(poses_deg, float))
+    out = {"fem_m": np.full((len(poses), 3), np.nan), "mjcf_m": np.zeros((len(poses), 3)),
+           "tension_N": np.full(len(poses), np.nan), "contact_N": np.full(len(poses), np.nan),
+           "converged": np.zeros(len(poses), bool), "stretch": np.zeros(len(poses)),
+           "fem_m_at": np.full((len(poses), len(activations), 3), np.nan)}
+    for k, p in enumerate(poses):
+        out["mjcf_m"][k] = sheet.mjcf_moment_arm(p)
+        sheet._set(p)
+        out["stretch"][k] = sheet.central_length() / sheet.reference_length
+        try:
+            s = sheet.solve(p) if offsets_deg is None else sheet.solve_least_energy(p, offsets_deg)
+        except NoConvergence:
+            s = None
+        if s is not None:
+            out["fem_m"][k], out["tension_N"][k] = s["moment_arm_m"], s["tension_N"]
+            out["contact_N"][k], out["converged"][k] = s["contact_N"], True
+            if len(activations):
+                out["fem_m_at"][k] = continued(sheet, p, s["nodes"], activations)
+        if progress is not None:
+            progress()
+    return {"tendon": tendon, "poses_deg": poses, "width_m": sheet.width, "resolution": (sheet.ns, sheet.nt),
+            "surface": surface, "rest": rest, "f0_N": sheet.f0, **out}
