@@ -108,7 +108,7 @@ def _verify(args) -> int:
         try:
             return band_verify.verify(folder=args.tables, tendons=args.tendon, interpolation=args.interpolation,
                                       count=args.held_out, jobs=args.jobs, activations=args.activation or ())
-        except ValueError as exc:  # a missing or unreadable table
+        except ValueError as exc:  # a missing or unreadable table, a level outside (0, 1]
             raise SystemExit(f"shoulder-bench fem verify: error: {exc}") from None
     if args.held_out is not None or args.tendon or args.interpolation != "linear" or args.jobs != 1 or args.activation:
         raise SystemExit("shoulder-bench fem verify: error: --tendon, --held-out, --interpolation, --jobs and "
