@@ -345,3 +345,28 @@ def test_verify_writes_its_figure_into_out(tmp_path, monkeypatch, capsys):
     assert (tmp_path / "figs" / "muscle_torques.png").exists() and sorted(p.name for p in tmp_path.iterdir()) == [
         "figs", "muscle_torques.png"]
     assert ("[FAIL]" in io.out) == (rc == 1)
+
+
+def test_a_non_finite_stiffness_ends_newton_with_no_convergence_not_a_crash(monkeypatch):
+    """SuperLU can crash the process on a matrix with NaN entries (a band build lost its worker pool so): Newton takes
+    no step from such a matrix and ends as it does where no step is found (NoConvergence, the residual not small)."""
+    import scipy.sparse.linalg as spla
+
+    from shoulder_bench.authoring.fem.solver import NoConvergence
+
+    sheet = _sheet(ns=5, nt=3)
+    p = MuscleProblem(sheet, Material(), SolverSettings(), f0=75.0)
+    x = sheet["nodes"].copy()
+    x[:, 0] *= 1.2
+    x[p.free] += 1e-3
+    real = p.energy_gradient_hessian
+
+    def nan_stiffness(x, a):
+        e, g, h = real(x, a)
+        h = h.tocsr(copy=True)
+        h.data[:] = np.nan
+        return e, g, h
+    monkeypatch.setattr(p, "energy_gradient_hessian", nan_stiffness)
+    monkeypatch.setattr(spla, "spsolve", lambda *a, **k: pytest.fail("spsolve called on a non-finite matrix"))
+    with pytest.raises(NoConvergence, match="line search failed"):
+        p.newton(x, 1.0)

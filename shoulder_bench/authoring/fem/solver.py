@@ -205,7 +205,8 @@ class MuscleProblem:
             hff = h[fd][:, fd].tocsc()
             diag_scale = float(np.mean(np.abs(hff.diagonal())))
             step = None
-            for shift in (0.0, 1e-6, 1e-4, 1e-2, 1.0):  # Levenberg shifts (fractions of the mean diagonal)
+            finite = bool(np.all(np.isfinite(hff.data)))  # SuperLU can crash on a non-finite matrix: no step from it
+            for shift in (0.0, 1e-6, 1e-4, 1e-2, 1.0) if finite else ():  # Levenberg shifts (of the mean diagonal)
                 a = hff if shift == 0.0 else hff + shift * diag_scale * sp.identity(len(fd), format="csc")
                 try:
                     p = -spla.spsolve(a, r)
