@@ -28,10 +28,10 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
        (`footprint_grid.cells`); `poses`: these (P, 3) deg for every tendon (length 0: none). Per coordinate the
        torque error at a = 1, F(L_MT(q), 1) |r_MJCF(q) + c(q) - r_band(q)|, in % of the tendon's peak
        |F(L_MT, 1) r_band| over its grid's poses (F: the length-keyed FEM table, `tendon_law`; a = 1, where the
-       force is largest: the band's line moves a little at lower levels, measured apart by
-       `benchmarks/band_activation.py`); bound `verify_full.HELD_OUT_TOL`. The band solved as the table's was
+       force is largest and the tables hold the band's line; lower levels with `activations`); bound
+       `verify_full.HELD_OUT_TOL`. The band solved as the table's was
        (`solve_poses`, in `jobs` processes). resolution: the sheets' (default: the table's own). interpolation: the
-       tables' (`BandTable`). activations (levels in (0, 1)): the same check at each, with the band continued on the
+       tables' (`BandTable`). activations (levels in (0, 1]): the same check at each, with the band continued on the
        same branch from its a = 1 equilibrium down to it (`footprint_compare.continued`): the error
        F(L_MT(q), a) |r_MJCF(q) + c(q) - r_band(q, a)|, in % of the same peak (the tables hold one line per pose, the
        band's at a = 1); a pose where the continuation finds no equilibrium counts as unsolved.
