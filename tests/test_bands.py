@@ -92,6 +92,23 @@ def test_bad_requests_are_refused_before_any_solve(tmp_path, capsys):
         fem_main(["verify", "--activation", "0.5"])
 
 
+def test_held_out_n_beyond_the_tasks_cells_draws_from_the_refined_grids_held_out_poses(monkeypatch):
+    """--held-out N on a refined grid: up to the tasks' 588 cells one sub-cell of each; beyond that (ssp's grid twice
+    as fine has 4,704 held-out poses) N distinct ones of all, not a sampling error."""
+    drawn = []
+
+    def solve(tendon, poses, *a, **k):
+        drawn.append(poses)
+        raise KeyboardInterrupt  # stop before any solve
+    monkeypatch.setattr(band_verify, "solve_poses", solve)
+    for n in (5, 600):
+        with pytest.raises(KeyboardInterrupt):
+            band_verify.verify(tendons=("ssp",), count=n, quiet=True)
+    every = {tuple(p) for p in np.round(bands.held_out("ssp"), 6)}
+    assert [len(d) for d in drawn] == [5, 600]
+    assert all({tuple(p) for p in np.round(d, 6)} <= every and len(np.unique(d, axis=0)) == len(d) for d in drawn)
+
+
 def test_held_out_0_checks_only_what_mujoco_applies(capsys):
     """The shipped tmi table: no re-solve, the applied-vs-FEM section over its whole grid (840 poses x 6 levels)."""
     assert fem_main(["verify", "--bands", "--tendon", "tmi", "--held-out", "0"]) == 0

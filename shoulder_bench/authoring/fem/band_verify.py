@@ -25,7 +25,8 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
     """Two sections, each able to fail (exit status 1):
     1. The taut band re-solved at held-out poses against the scheme: by default all of each tendon's grid's
        (`held_out`: halfway between its poses in every coordinate); `count` N: N of them drawn with a fixed seed
-       (`footprint_grid.cells`); `poses`: these (P, 3) deg for every tendon (length 0: none). Per coordinate the
+       (`footprint_grid.cells`, one per cell of the tasks' grid, while N is at most their 588; beyond, from all);
+       `poses`: these (P, 3) deg for every tendon (length 0: none). Per coordinate the
        torque error at a = 1, F(L_MT(q), 1) |r_MJCF(q) + c(q) - r_band(q)|, in % of the tendon's peak
        |F(L_MT, 1) r_band| over its grid's poses (F: the length-keyed FEM table, `tendon_law`; a = 1, where the
        force is largest and the tables hold the band's line; lower levels with `activations`); bound
@@ -58,7 +59,11 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
         every = held_out(t)
         if count is None:
             return every
-        return cells(min(count, len(every)), refine=refinement(t))[0] if count else every[:0]
+        if not count:
+            return every[:0]
+        if count <= len(held_out()):  # one sub-cell of each of `count` cells of the tasks' grid, as `footprint_grid`
+            return cells(count, refine=refinement(t))[0]
+        return every[np.sort(np.random.default_rng(0).choice(len(every), min(count, len(every)), replace=False))]
 
     pose, failed, checked = full_arm.Pose(), [], False
     print(f"band tables in {folder} ({interpolation}): held-out poses re-solved per tendon; error at activation a in "
