@@ -186,6 +186,7 @@ def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_
 
 SOLVED = ("fem_m", "mjcf_m", "tension_N", "contact_N", "converged")  # what `solve_poses` gives per pose
 SAVE_EVERY = 200  # poses a build solves between checkpoints: at most this many are solved again after an interrupt
+PARTIAL = ("poses", "f0_N") + SOLVED  # what a checkpoint holds (beside its input hash): a `known` dict
 
 
 def _solve_saving(tendon: str, poses: np.ndarray, resolution: str, progress, pose, jobs: int, save) -> dict:
@@ -217,14 +218,14 @@ def resumed(path: Path, digest: str) -> dict | None:
     whose hash is `digest`; else None (missing, unreadable or from other inputs: solved anew)."""
     try:
         with np.load(path) as z:
-            return {k: z[k] for k in ("poses", "f0_N") + SOLVED} if str(z["input_hash"]) == digest else None
+            return {k: z[k] for k in PARTIAL} if str(z["input_hash"]) == digest else None
     except (OSError, ValueError, KeyError):
         return None
 
 
 def _save_partial(path: Path, digest: str, known: dict) -> None:
     with replacing(path) as tmp:
-        np.savez(tmp, input_hash=np.array(digest), **{k: known[k] for k in ("poses", "f0_N") + SOLVED})
+        np.savez(tmp, input_hash=np.array(digest), **{k: known[k] for k in PARTIAL})
 
 
 def merged(*knowns: dict | None) -> dict | None:
@@ -373,13 +374,13 @@ def _build(folder: Path, tendons: tuple, resolution: str, jobs: int, quiet: bool
         if meta.get("input_hash") == digest:
             result[t] = dict(meta, cached=True)
         else:
-            todo.append((t, digest, reusable(table_path(t, folder), t, resolution, material),
-                         resumed(partial_path(t, folder), digest)))
-    total = sum(int((_known_at(grid_poses(t), merged(old, done)) < 0).sum()) for t, _, old, done in todo)
+            done = resumed(partial_path(t, folder), digest)
+            todo.append((t, digest, done, merged(reusable(table_path(t, folder), t, resolution, material), done)))
+    total = sum(int((_known_at(grid_poses(t), known) < 0).sum()) for t, _, _, known in todo)
     with tqdm(total=total, desc="fem bands", unit="pose", disable=quiet or not todo) as bar:
-        for t, digest, old, done in todo:
+        for t, digest, done, known in todo:
             t0, partial = time.perf_counter(), partial_path(t, folder)
-            grid = solve_grid(t, resolution, bar.update, jobs=jobs, known=merged(old, done),
+            grid = solve_grid(t, resolution, bar.update, jobs=jobs, known=known,
                               save=lambda new, p=partial, d=digest, done=done: _save_partial(p, d, merged(done, new)))
             resumed_poses = 0 if done is None else len(done["poses"])
             meta = _meta(t, resolution, digest, dict(grid, reused=grid["reused"] - resumed_poses),
