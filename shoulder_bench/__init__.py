@@ -20,15 +20,19 @@ _register_gym()
 
 def make_vec(name: str, num_envs: int, device: str = "cpu", seed=None, backend: str = "mujoco", **options):
     """N copies of a task in lockstep as an rsl-rl VecEnv: backend "mujoco" (shoulder_bench.tasks.vec_env, the
-    compiled callback) or "mjx" (shoulder_bench.tasks.mjx_env on the JAX device; needs the [mjx] extra; docs/gpu.md)."""
+    compiled callback) or "mjx" (shoulder_bench.tasks.mjx_env on the JAX device, the 1-DOF tasks; needs the [mjx]
+    extra; docs/gpu.md)."""
+    from shoulder_bench.tasks import is_3dof
+
+    if backend not in ("mujoco", "mjx"):
+        why = " (no MuJoCo Warp backend: float32 cannot carry this model; docs/gpu.md)" if backend == "warp" else ""
+        raise ValueError(f"backend must be 'mujoco' or 'mjx', got {backend!r}{why}")
     if backend == "mjx":
+        if is_3dof(name):
+            raise ValueError(f"{name}: the MJX backend runs the 1-DOF tasks; the 3-DOF tasks run on backend='mujoco'")
         from shoulder_bench.tasks.mjx_env import make
 
         return make(name, num_envs, device=device, seed=seed, **options)
-    if backend != "mujoco":
-        raise ValueError(f"backend must be 'mujoco' or 'mjx', got {backend!r}")
-    from shoulder_bench.tasks import is_3dof
-
     if is_3dof(name):  # the full shoulder's tasks (shoulder_bench.tasks.vec_env3)
         from shoulder_bench.tasks.vec_env3 import VecEnv3
 

@@ -110,8 +110,14 @@ def test_bad_seed_or_count_is_a_clear_error(kw, message):
 def test_make_vec_names_its_backends():
     import shoulder_bench
 
-    with pytest.raises(ValueError, match="backend must be 'mujoco' or 'mjx'"):
+    with pytest.raises(ValueError, match="backend must be 'mujoco' or 'mjx'.*float32"):
         shoulder_bench.make_vec("abduction_4m", 2, backend="warp")
+    with pytest.raises(ValueError, match="backend must be 'mujoco' or 'mjx', got 'jax'$"):
+        shoulder_bench.make_vec("abduction_4m", 2, backend="jax")
+    with pytest.raises(ValueError, match="MJX backend runs the 1-DOF tasks"):  # before it needs jax
+        shoulder_bench.make_vec("track_3dof", 2, backend="mjx")
+    with pytest.raises(KeyError, match="unknown task"):
+        shoulder_bench.make_vec("track_3dog", 2, backend="mjx")
 
 
 @pytest.mark.parametrize("name", ["abduction_4m", "track_3dof"])
