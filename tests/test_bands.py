@@ -192,8 +192,9 @@ def test_least_energy_takes_tmis_lower_equilibrium_where_the_ramp_lands_on_the_h
 
 def test_refined_grids_nest_the_tasks_grid_and_read_as_their_own_tables(tmp_path):
     """ssp's and pec1's tables are on the tasks' grid with its step halved (REFINE), tma's with its plane and rotation
-    steps divided by 3; BandLines reads tables on different grids on the coarsest that nests them all (steps divided
-    by 6, 2, 6), each as its own BandTable reads it; a grid over another range is refused."""
+    steps divided by 3 and its elevation step by 2; BandLines reads tables on different grids on the coarsest that
+    nests them all (steps divided by 6, 2, 6), each as its own BandTable reads it; a grid over another range is
+    refused."""
     from shoulder_bench.band_lines import BandLines
 
     coarse, fine = bands.axes(), bands.axes("ssp")
@@ -203,7 +204,7 @@ def test_refined_grids_nest_the_tasks_grid_and_read_as_their_own_tables(tmp_path
     from shoulder_bench.authoring.fem.footprint_grid import cells  # `fem verify --bands --held-out N`'s draw
 
     third = bands.axes("tma")
-    assert [len(a) for a in third] == [3 * len(coarse[0]) - 2, len(coarse[1]), 3 * len(coarse[2]) - 2]
+    assert [len(a) for a in third] == [3 * len(coarse[0]) - 2, 2 * len(coarse[1]) - 1, 3 * len(coarse[2]) - 2]
     assert len(bands.held_out("tma")) == np.prod([len(a) - 1 for a in third])
     for t in ("ssp", "tma"):
         drawn = cells(5, refine=bands.refinement(t))[0]
