@@ -24,6 +24,7 @@ import warp as wp
 from shoulder_bench import arm, full_arm
 from shoulder_bench import trajectory as targets1
 from shoulder_bench import trajectory3 as targets3
+from shoulder_bench.geometry import forces_as_controls
 
 wp.config.log_level = wp.LOG_WARNING  # no line per kernel module loaded
 import mujoco_warp as mjw  # noqa: E402
@@ -32,25 +33,14 @@ FORCE_N = 200.0
 SOLVERS = {"newton": mujoco.mjtSolver.mjSOL_NEWTON, "cg": mujoco.mjtSolver.mjSOL_CG}
 
 
-def plain(m: mujoco.MjModel) -> mujoco.MjModel:
-    """Actuators with gain 1 and no bias: the control is the force along the tendon."""
-    m.actuator_gaintype[:] = mujoco.mjtGain.mjGAIN_FIXED
-    m.actuator_gainprm[:] = 0.0
-    m.actuator_gainprm[:, 0] = 1.0
-    m.actuator_biastype[:] = mujoco.mjtBias.mjBIAS_NONE
-    m.actuator_biasprm[:] = 0.0
-    m.actuator_ctrllimited[:] = 0
-    return m
-
-
 def states(name: str, n: int, rng) -> tuple[mujoco.MjModel, np.ndarray, int]:
     """(plain model, qpos (n, nq) on its couplings, the elevation's qpos address)."""
     if name == "1-DOF arm":
-        m = plain(arm.compile_arm())
+        m = forces_as_controls(arm.compile_arm())
         lo, hi = targets1.SPLITS["test"]["range_deg"]
         qpos = arm.LockedPath(m).qpos(np.radians(rng.uniform(lo, hi, n)))
         return m, qpos, int(m.joint(arm.JOINT).qposadr[0])
-    m = plain(full_arm.compile_full())
+    m = forces_as_controls(full_arm.compile_full())
     box = targets3.SPLITS["test"]["range_deg"]
     poses = np.stack([rng.uniform(lo, hi, n) for lo, hi in box], axis=1)
     return m, full_arm.Pose(m).qpos(poses), int(m.joint(full_arm.COORDINATES[1]).qposadr[0])

@@ -15,6 +15,18 @@ from shoulder_bench.paths import MODEL_PATH
 JOINT = "abduction"  # model v1's joint
 
 
+def forces_as_controls(m: mujoco.MjModel) -> mujoco.MjModel:
+    """Make `m`'s actuators plain, in place: fixed gain 1, no bias, no control limits, so that each control is the
+    force along its tendon (the numpy engine's acceleration oracle, the MJX backend, `benchmarks/warp_check.py`)."""
+    m.actuator_gaintype[:] = mujoco.mjtGain.mjGAIN_FIXED
+    m.actuator_gainprm[:] = 0.0
+    m.actuator_gainprm[:, 0] = 1.0
+    m.actuator_biastype[:] = mujoco.mjtBias.mjBIAS_NONE
+    m.actuator_biasprm[:] = 0.0
+    m.actuator_ctrllimited[:] = 0
+    return m
+
+
 def compile_model(path: Path | str = MODEL_PATH, prepare=None, *, xml: str | None = None) -> mujoco.MjModel:
     """Compile an MJCF file (`path`) or MJCF text (`xml`) whose actuators may be `user` ones while the muscle
     callbacks are installed (thread-safe), then call `prepare(model)` if given (e.g. `arm.harden_couplings`).

@@ -32,11 +32,11 @@ from functools import partial
 
 import jax
 import jax.numpy as jnp
-import mujoco
 import numpy as np
 from mujoco import mjx
 
 from shoulder_bench import arm as arm_
+from shoulder_bench.geometry import forces_as_controls
 from shoulder_bench.muscle import FV_MAX
 
 DTYPES = ("float64", "float32")
@@ -258,14 +258,7 @@ class MjxArm:
         self.batching = batching or ("map" if self.device.platform == "cpu" else "vmap")
         if self.batching not in BATCHING:
             raise ValueError(f"batching must be one of {BATCHING}, got {batching!r}")
-        m = arm_.compile_arm()
-        # muscle forces as plain controls: fixed gain 1, no bias, no control limits (the numpy engine's oracle)
-        m.actuator_gaintype[:] = mujoco.mjtGain.mjGAIN_FIXED
-        m.actuator_gainprm[:] = 0.0
-        m.actuator_gainprm[:, 0] = 1.0
-        m.actuator_biastype[:] = mujoco.mjtBias.mjBIAS_NONE
-        m.actuator_biasprm[:] = 0.0
-        m.actuator_ctrllimited[:] = 0
+        m = forces_as_controls(arm_.compile_arm())  # muscle forces as plain controls (the numpy engine's oracle)
         jnt = m.joint(arm_.JOINT)
         self.qadr, self.dadr = int(jnt.qposadr[0]), int(jnt.dofadr[0])
         m.dof_damping[self.dadr] = float(joint_damping)

@@ -33,6 +33,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
+from shoulder_bench.geometry import forces_as_controls
 from shoulder_bench.model import DEFAULT_JOINTS, MODEL_PATH, attach_law, compile_model, install_callbacks
 
 RK4_A = ((0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))  # MuJoCo's RK4 tableau
@@ -115,11 +116,7 @@ class BatchSimulator:
             self._setup_state(m, num, nthread, warmstart, self.steps_per_frame)
             return
         # the acceleration oracle: muscle forces as plain controls, one explicit Euler step (damping explicit too)
-        m.actuator_gaintype[:] = mujoco.mjtGain.mjGAIN_FIXED
-        m.actuator_gainprm[:] = 0.0
-        m.actuator_gainprm[:, 0] = 1.0
-        m.actuator_biastype[:] = mujoco.mjtBias.mjBIAS_NONE
-        m.actuator_ctrllimited[:] = 0
+        forces_as_controls(m)
         m.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
         m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EULERDAMP
         self.model, self.law, self.num = m, law, num
