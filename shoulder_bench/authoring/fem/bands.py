@@ -71,9 +71,8 @@ MAX_UNSOLVED = 0.01
 # Each tendon's grid step: the tasks' divided by this (1 if absent), in every coordinate or per coordinate (plane,
 # elevation, rotation). Where the held-out check on the tasks' grid missed by interpolation
 # (`benchmarks/band_refine.py`: ssp and pec1 within the bound at their worst pose on a grid twice as fine; tma's worst
-# cell, whose arms about plane and rotation bend within it, at a third of the step in those two, and then its worst
-# by interpolation in elevation at half that step too; docs/fem.md "What each miss is", "tma", "tma: half the
-# elevation step")
+# cell at a third of the step in plane and rotation, where its arms bend, then half in elevation; docs/fem.md "What
+# each miss is", "tma", "tma: half the elevation step")
 REFINE = {"ssp": 2, "pec1": 2, "tma": (3, 2, 3)}
 # Tendons whose band is solved as the least-energy of several equilibria (`least_energy`), with how many of
 # `probe_offsets`' six starts beside the ramp's: tmi, whose sheet (no contact surface) has two at some poses, the ramp
