@@ -25,12 +25,18 @@ from shoulder_bench import arm, full_arm
 from shoulder_bench import trajectory as targets1
 from shoulder_bench import trajectory3 as targets3
 from shoulder_bench.geometry import forces_as_controls
+from shoulder_bench.protocol import FRAME_S
 
 wp.config.log_level = wp.LOG_WARNING  # no line per kernel module loaded
 import mujoco_warp as mjw  # noqa: E402
 
 FORCE_N = 200.0
 SOLVERS = {"newton": mujoco.mjtSolver.mjSOL_NEWTON, "cg": mujoco.mjtSolver.mjSOL_CG}
+
+
+def frame_steps(m: mujoco.MjModel) -> int:
+    """Physics steps in one of the tasks' frames."""
+    return int(round(FRAME_S / m.opt.timestep))
 
 
 def states(name: str, n: int, rng) -> tuple[mujoco.MjModel, np.ndarray, int]:
@@ -58,10 +64,10 @@ def reference(m, qpos, ctrl):
         mujoco.mj_forward(m, d)
         mujoco.mj_fullM(m, d, full)
         cond.append(np.linalg.cond(full))
-        for _ in range(int(round(0.1 / m.opt.timestep))):
+        for _ in range(frame_steps(m)):
             mujoco.mj_step(m, d)
         end[k] = d.qpos
-        kept[k] = abs(d.time - 0.1) < 1e-9  # MuJoCo resets a copy whose acceleration blows up (time restarts)
+        kept[k] = abs(d.time - FRAME_S) < 1e-9  # MuJoCo resets a copy whose acceleration blows up (time restarts)
     return np.array(cond), end, kept
 
 
@@ -70,16 +76,19 @@ def on_warp(m, qpos, ctrl, solver: str):
     after one frame of `step`s)."""
     m = copy.copy(m)
     m.opt.solver = SOLVERS[solver]
-    with wp.ScopedDevice("cpu"):
-        mx, d = mjw.put_model(m), mjw.make_data(m, nworld=len(qpos))
-        d.qpos.assign(qpos.astype(np.float32))
-        d.ctrl.assign(ctrl.astype(np.float32))
-        mjw.forward(mx, d)
-        finite = (np.isfinite(d.qacc_smooth.numpy()).all(axis=1), np.isfinite(d.qacc.numpy()).all(axis=1))
+
+    def posed():  # fresh data of every copy at its state and controls
         d = mjw.make_data(m, nworld=len(qpos))
         d.qpos.assign(qpos.astype(np.float32))
         d.ctrl.assign(ctrl.astype(np.float32))
-        for _ in range(int(round(0.1 / m.opt.timestep))):
+        return d
+
+    with wp.ScopedDevice("cpu"):
+        mx, d = mjw.put_model(m), posed()
+        mjw.forward(mx, d)
+        finite = (np.isfinite(d.qacc_smooth.numpy()).all(axis=1), np.isfinite(d.qacc.numpy()).all(axis=1))
+        d = posed()
+        for _ in range(frame_steps(m)):
             mjw.step(mx, d)
         return finite, d.qpos.numpy().astype(np.float64)
 
