@@ -67,6 +67,18 @@ BDQ_CONFIGS = {
     "n128_u2": {"num_envs": 128, "updates_per_step": 2.0},  # half of them
     "n64_b512": {"num_envs": 64, "batch_size": 512},  # half the steps, each on twice the batch
     "n128_lr1e-3": {"num_envs": 128, "lr": 1e-3},
+    # round 2 (2026-12-06), for sample efficiency: n-step returns (`n_step`), a shorter exploration schedule
+    "nstep3": {"n_step": 3},
+    "nstep5": {"n_step": 5},
+    "eps30k": {"eps_decay_frames": 30_000},
+    "nstep3_eps30k": {"n_step": 3, "eps_decay_frames": 30_000},
+    # round 3: a shorter horizon (the paper's gamma is 0.99) with round 2's exploration schedule
+    "eps30k_g95": {"eps_decay_frames": 30_000, "gamma": 0.95},
+    "eps30k_g90": {"eps_decay_frames": 30_000, "gamma": 0.9},
+    "nstep3_eps30k_g95": {"n_step": 3, "eps_decay_frames": 30_000, "gamma": 0.95},
+    # round 4: a Polyak-averaged target (a small step after every gradient step) instead of a copy every 250
+    "eps30k_polyak": {"eps_decay_frames": 30_000, "target_update_every": 1, "target_tau": 0.005},
+    "eps30k_g90_polyak": {"eps_decay_frames": 30_000, "gamma": 0.9, "target_update_every": 1, "target_tau": 0.005},
 }
 SEARCHES = {"ppo": (BEFORE, CONFIGS, "abduction_4m", "runs/ppo_wallclock"),
             "bdq": (BDQ_BEFORE, BDQ_CONFIGS, "abduction_4m_discrete", "runs/bdq_wallclock")}

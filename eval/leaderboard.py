@@ -52,10 +52,10 @@ def model_version() -> str:
 
 def setting_of(info: dict) -> dict:
     """What defines a row: everything a run's config.json (or a policy's metadata) records but the seed, with the
-    defaults of records older than a field (options {}, model version "1", the default muscle model, PPO's
-    `run.ADDED_FIELDS`)."""
+    defaults of records older than a field (options {}, model version "1", the default muscle model, the
+    algorithm's `run.ADDED_FIELDS`)."""
     from shoulder_bench.model import DEFAULT_MUSCLE_MODEL
-    from shoulder_bench.train.run import ADDED_FIELDS
+    from shoulder_bench.train.run import with_added_fields
 
     out = {k: v for k, v in info.items() if k not in NOT_SETTING}
     out["muscle_model"] = out.get("muscle_model") or DEFAULT_MUSCLE_MODEL
@@ -63,8 +63,7 @@ def setting_of(info: dict) -> dict:
     out["model_version"] = str(out.get("model_version") or "1")
     if isinstance(out.get("config"), dict):  # DQN's config repeats the seed
         out["config"] = {k: v for k, v in out["config"].items() if k != "seed"}
-        if out.get("algo") == "ppo":
-            out["config"] = ADDED_FIELDS | out["config"]
+        out["config"] = with_added_fields(out.get("algo"), out["config"])
     return json.loads(json.dumps(out, default=str, sort_keys=True))
 
 

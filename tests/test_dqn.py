@@ -156,3 +156,52 @@ def test_the_error_features_are_each_coordinates_own():
     assert agent.q.trunk[0].in_features == obs.shape[1] + 6
     again = DQNAgent.from_state_dict(agent.state_dict())  # the coordinates travel with the checkpoint
     assert again.dofs == 3 and torch.equal(again.q(obs), agent.q(obs))
+
+
+def test_n_step_window_by_hand():
+    """Three-step returns of two copies: copy 0 runs on, then times out; copy 1 crashes at its second step, and its
+    next episode's steps never enter the returns of the one before."""
+    from shoulder_bench.train.replay import NStepWindow
+
+    w = NStepWindow(3, gamma=0.5)
+    f = torch.tensor([False, False])
+
+    def step(t, done=f, out=f):  # obs = 10 t + copy, next obs = 10 (t + 1) + copy, reward t + 1 (copy 0), -(t + 1)
+        obs = torch.tensor([[10.0 * t], [10.0 * t + 1]])
+        return w.push(obs, torch.tensor([[t], [t]], dtype=torch.uint8), torch.tensor([t + 1.0, -(t + 1.0)]),
+                      obs + 10, done, out)
+
+    assert step(0) is None
+    assert step(1, done=torch.tensor([False, True])) is None  # copy 1 crashes
+    obs, act, ret, boot, term, steps = step(2)
+    assert torch.equal(obs[:, 0], torch.tensor([0.0, 1.0]))
+    torch.testing.assert_close(ret, torch.tensor([1 + 0.5 * 2 + 0.25 * 3, -1 - 0.5 * 2]))
+    assert torch.equal(boot[:, 0], torch.tensor([30.0, 21.0])) and torch.equal(term, torch.tensor([False, True]))
+    assert torch.equal(steps, torch.tensor([3, 2], dtype=torch.uint8))
+    # copy 0 times out at step 3: the window from step 1 stops before it and bootstraps from step 3's observation
+    obs, act, ret, boot, term, steps = step(3, done=torch.tensor([True, False]), out=torch.tensor([True, False]))
+    torch.testing.assert_close(ret, torch.tensor([2 + 0.5 * 3, -2.0]))
+    assert torch.equal(boot[:, 0], torch.tensor([30.0, 21.0])) and torch.equal(steps, torch.tensor([2, 1],
+                                                                                                   dtype=torch.uint8))
+    assert torch.equal(term, torch.tensor([False, True]))
+    step(4)
+    obs, *_ = step(5)  # the window from step 3: copy 0's time-out stores nothing, copy 1's return runs on
+    assert torch.equal(obs[:, 0], torch.tensor([31.0]))
+    one = NStepWindow(1, gamma=0.5)  # n = 1: the one-step transitions, time-outs dropped
+    obs1, _, ret1, boot1, term1, steps1 = one.push(torch.zeros(2, 1), torch.zeros(2, 1, dtype=torch.uint8),
+                                                   torch.tensor([1.0, 2.0]), torch.ones(2, 1),
+                                                   torch.tensor([True, True]), torch.tensor([True, False]))
+    assert torch.equal(ret1, torch.tensor([2.0])) and term1.tolist() == [True] and steps1.tolist() == [1]
+
+
+def test_n_step_training_resumes_exactly_and_matches_one_call():
+    a, env_a = make("abduction_4m_discrete", True, n_step=3)
+    a.learn(env_a, 600)
+    assert len(a.window.steps) == 2  # the last two vec steps wait for their returns
+    b = DQNAgent.from_state_dict(a.state_dict())
+    a.learn(env_a, 600)
+    c, env_c = make("abduction_4m_discrete", True, n_step=3)
+    c.learn(env_c, 1_200)
+    for p, q in zip(a.q.parameters(), c.q.parameters()):
+        assert torch.equal(p, q)
+    assert len(b.window.steps) == 2 and b.buffer.steps[:len(b.buffer)].max() == 3

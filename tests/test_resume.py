@@ -124,6 +124,15 @@ def test_a_run_recorded_before_a_config_field_existed_is_the_run_with_its_old_va
     assert train("abduction_ssp", "ppo", frames=128, out=out, config=old, resume=True) == first
 
 
+def test_a_dqn_run_recorded_before_n_step_is_the_one_step_run():
+    from shoulder_bench.train.run import identity_of
+
+    old = {"task": "abduction_4m_discrete", "algo": "bdq", "seed": 0, "config": {"lr": 5e-4, "frames": 500_000}}
+    assert identity_of(old) == identity_of({**old, "config": {"lr": 5e-4, "n_step": 1}})
+    assert identity_of(old) != identity_of({**old, "config": {"lr": 5e-4, "n_step": 3}})
+    assert "n_step" not in identity_of({**old, "algo": "ppo"})["config"]
+
+
 @pytest.mark.parametrize("kw,message", [
     ({"frames": 0}, r"--frames must be an integer >= 1, got 0"),
     ({"frames": -5}, r"--frames must be an integer >= 1, got -5"),

@@ -32,6 +32,10 @@ target is r and the wrong next observation is never used. A time-out is a trunca
 lost observation, so that transition is not stored at all (1 transition in 100 on the training split; the agent
 still receives the earlier rewards of the episode, and the state has no clock, so nothing else depends on it).
 Rewards are multiplied by `reward_scale` before storage (the paper's reward is -|error| in degrees per frame).
+With `n_step` > 1 each stored transition carries the discounted return of up to n frames of its copy and the
+observation it bootstraps from, gamma ** steps later (`replay.NStepWindow`: a crash ends the return as terminal, a
+time-out ends it one frame early, bootstrapping from the last observation kept); the returns are not corrected for
+the ε-greedy frames inside them (as in Rainbow's n-step DQN, Hessel et al. 2018).
 
 Counting: a frame is one step of one copy, so a vec step of N copies is N frames; `learn(env, frames)` runs whole vec
 steps until at least `frames` more have been simulated, and `agent.frames` is the exact count. ε, learning start,
@@ -53,7 +57,7 @@ from torch import nn
 
 from shoulder_bench.protocol import LEVELS  # 21 levels of change of activation per muscle
 from shoulder_bench.train.config import at_least, positive, sizes, unit_interval
-from shoulder_bench.train.replay import ReplayBuffer
+from shoulder_bench.train.replay import NStepWindow, ReplayBuffer
 
 
 @dataclass
@@ -64,6 +68,7 @@ class DQNConfig:
     batch_size: int = 256
     lr: float = 5e-4  # Adam
     gamma: float = 0.99  # paper
+    n_step: int = 1  # returns over n frames of a copy before bootstrapping (replay.NStepWindow); 1 = one-step
     target_update_every: int = 250  # gradient steps between target updates
     target_tau: float = 1.0  # target <- tau * online + (1 - tau) * target at each update; 1.0 = hard copy
     eps_start: float = 1.0
@@ -84,7 +89,8 @@ class DQNConfig:
 
 
 LIMITS = {"frames": at_least(1), "num_envs": at_least(1), "buffer_size": at_least(1), "batch_size": at_least(1),
-          "lr": positive(), "gamma": unit_interval(open_low=True), "target_update_every": at_least(1),
+          "lr": positive(), "gamma": unit_interval(open_low=True), "n_step": at_least(1),
+          "target_update_every": at_least(1),
           "target_tau": unit_interval(open_low=True), "eps_start": unit_interval(), "eps_end": unit_interval(),
           "eps_decay_frames": at_least(0), "learning_starts": at_least(0), "updates_per_step": at_least(0),
           "hidden": sizes(), "reward_scale": positive(), "huber_delta": positive(), "max_grad_norm": positive(),
@@ -173,14 +179,16 @@ class GreedyPolicy(nn.Module):
         return self.q(obs).argmax(dim=-1)
 
 
-def branching_target(q_online_next, q_target_next, reward, terminated, gamma: float) -> torch.Tensor:
+def branching_target(q_online_next, q_target_next, reward, terminated, gamma: float, steps=None) -> torch.Tensor:
     """(B,) target of every branch: r + gamma * (1 - terminated) * mean_d Q_d^target(s', argmax_a Q_d^online(s', a)).
 
-    With one branch this is the Double DQN target. Q arrays are (B, n, LEVELS).
+    With one branch this is the Double DQN target. Q arrays are (B, n, LEVELS). steps (B,): frames from s to s' of
+    n-step transitions (r is then their discounted return), discounting by gamma ** steps; None: one frame.
     """
     best = q_online_next.argmax(dim=-1, keepdim=True)  # the online net selects ...
     q_next = q_target_next.gather(-1, best).squeeze(-1)  # ... the target net evaluates: (B, n)
-    return reward + gamma * (1.0 - terminated.float()) * q_next.mean(dim=-1)
+    discount = gamma if steps is None else gamma ** steps.float()
+    return reward + discount * (1.0 - terminated.float()) * q_next.mean(dim=-1)
 
 
 # --- agent ------------------------------------------------------------------------------------------------------------
@@ -193,6 +201,7 @@ class DQNAgent:
         self.q_target = copy.deepcopy(self.q).requires_grad_(False)
         self.optim = torch.optim.Adam(self.q.parameters(), lr=cfg.lr, fused=True)
         self.buffer = ReplayBuffer(cfg.buffer_size, self.obs_dim, self.n)
+        self.window = NStepWindow(cfg.n_step, cfg.gamma)  # n-step returns per copy, then into the buffer
         self.rng = np.random.default_rng(cfg.seed)  # exploration
         self.gen = torch.Generator().manual_seed(cfg.seed)  # replay sampling
         self.frames = self.vec_steps = self.grad_steps = 0
@@ -227,9 +236,10 @@ class DQNAgent:
     # --- learning ----------------------------------------------------------------------------------------------------
     def _update(self) -> None:
         c = self.cfg
-        obs, act, rew, next_obs, term = self.buffer.sample(c.batch_size, self.gen)
-        with torch.no_grad():
-            y = branching_target(self.q(next_obs), self.q_target(next_obs), rew, term, c.gamma)  # (B,)
+        obs, act, rew, next_obs, term, steps = self.buffer.sample(c.batch_size, self.gen)
+        with torch.no_grad():  # (B,); one-step transitions keep the plain gamma (the runs before n_step, unchanged)
+            y = branching_target(self.q(next_obs), self.q_target(next_obs), rew, term, c.gamma,
+                                 steps if c.n_step > 1 else None)
         q = self.q(obs).gather(-1, act.unsqueeze(-1)).squeeze(-1)  # (B, n): Q of the levels taken
         loss = F.huber_loss(q, y.unsqueeze(-1).expand_as(q), delta=c.huber_delta)  # mean over batch and branches
         self.optim.zero_grad(set_to_none=True)
@@ -260,9 +270,11 @@ class DQNAgent:
             td, rew, done, extras = env.step(torch.as_tensor(levels))
             next_obs = td["policy"].float().cpu()
             done, time_out = done.cpu().bool(), extras["time_outs"].cpu().bool()
-            keep = ~time_out  # truncated: the final observation is lost to the auto-reset, so drop the transition
-            self.buffer.add(obs[keep], torch.as_tensor(levels[keep.numpy()], dtype=torch.uint8),
-                            rew.cpu().float()[keep] * c.reward_scale, next_obs[keep], (done & ~time_out)[keep])
+            # truncated: the final observation is lost to the auto-reset, so the window stores no transition from it
+            levels_u8 = torch.as_tensor(levels, dtype=torch.uint8)
+            ready = self.window.push(obs, levels_u8, rew.cpu().float() * c.reward_scale, next_obs, done, time_out)
+            if ready is not None:
+                self.buffer.add(*ready)
             if "log" in extras:  # means over the copies that finished at this step
                 k, log = int(done.sum()), extras["log"]
                 self.stats["episodes"] += k
@@ -306,6 +318,7 @@ class DQNAgent:
         return {"config": asdict(self.cfg), "obs_dim": self.obs_dim, "n_branches": self.n, "dofs": self.dofs,
                 "q": self.q.state_dict(), "q_target": self.q_target.state_dict(), "optim": self.optim.state_dict(),
                 "buffer": self.buffer.state_dict() if self.cfg.save_buffer else None,
+                "window": self.window.state_dict(),
                 "counters": {"frames": self.frames, "vec_steps": self.vec_steps, "grad_steps": self.grad_steps,
                              "update_credit": self.update_credit, "normalizer_fitted": self.normalizer_fitted},
                 "rng": {"numpy": self.rng.bit_generator.state, "torch": self.gen.get_state()},
@@ -320,6 +333,7 @@ class DQNAgent:
             self.buffer.load_state_dict(d["buffer"])
         else:  # no stored buffer: refill it before updating again (updates wait for a full batch)
             self.buffer = ReplayBuffer(self.cfg.buffer_size, self.obs_dim, self.n)
+        self.window.load_state_dict(d.get("window", []))  # checkpoints from before n_step: one-step, none held
         k = d["counters"]
         self.frames, self.vec_steps, self.grad_steps = k["frames"], k["vec_steps"], k["grad_steps"]
         self.update_credit, self.normalizer_fitted = k["update_credit"], k["normalizer_fitted"]

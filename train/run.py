@@ -33,10 +33,16 @@ from shoulder_bench.locks import LOCK, FolderLock  # noqa: F401 (FolderLock: whe
 CHECKPOINT = "checkpoint.pt"
 IDENTITY = ("task", "algo", "seed", "muscle_model", "options", "model_version", "config", "init_from")
 BUDGET_FREE = ("frames",)  # algorithm config fields that are the run's budget, not its identity (DQN's `frames`)
-# PPO config fields added after runs were recorded, with the value those runs had (their behaviour then): a run
-# recorded without one is the same run as one asking for that value. Torch threads in the update (1), rsl-rl's foreach
-# Adam (fused_adam False), a fixed KL target (anneal_kl False)
-ADDED_FIELDS = {"update_threads": 1, "fused_adam": False, "anneal_kl": False}
+# Config fields added after runs were recorded, per algorithm, with the value those runs had (their behaviour then): a
+# run recorded without one is the same run as one asking for that value. PPO: torch threads in the update (1), rsl-rl's
+# foreach Adam (fused_adam False), a fixed KL target (anneal_kl False); DQN and BDQ: one-step returns (n_step 1)
+ADDED_FIELDS = {"ppo": {"update_threads": 1, "fused_adam": False, "anneal_kl": False},
+                "dqn": {"n_step": 1}, "bdq": {"n_step": 1}}
+
+
+def with_added_fields(algo: str, config: dict) -> dict:
+    """An algorithm config as recorded, completed with the `ADDED_FIELDS` it predates."""
+    return ADDED_FIELDS.get(algo, {}) | config
 
 
 def write_json(path: Path, obj) -> None:
@@ -50,8 +56,7 @@ def identity_of(config: dict) -> dict:
     ident["options"] = ident["options"] or {}  # runs from before these fields were recorded: no options, model v1
     ident["model_version"] = ident["model_version"] or "1"
     ident["config"] = {k: v for k, v in (ident["config"] or {}).items() if k not in BUDGET_FREE}
-    if ident["algo"] == "ppo":
-        ident["config"] = ADDED_FIELDS | ident["config"]
+    ident["config"] = with_added_fields(ident["algo"], ident["config"])
     return json.loads(json.dumps(ident, default=str))  # tuples as lists: what config.json holds
 
 
