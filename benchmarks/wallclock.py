@@ -11,7 +11,7 @@ mini-batches, 24 steps; `CONFIGS` below; `default` is `BEFORE` itself; rounds 1-
 `n64_s12`; round 4 tried `s12_*` from it and kept it; round 5 chose `s12_fused`, today's `PPOConfig()`). BDQ configs
 (`BDQ_CONFIGS`, task `abduction_4m_discrete`) are overrides of the task's preset before its search (`BDQ_BEFORE`,
 `train.dqn.PRESETS`; round 1 fewer gradient steps per frame, rounds 2-4 n-step returns, exploration, gamma and the
-target update, none kept). Runs are normal
+target update, none kept; round 5 the env stepped beside the updates, kept). Runs are normal
 run folders (`<out>/<config>/<seed>`), so a rerun resumes or reuses finished ones; `<out>/table.md` is rewritten at
 the end. The runs alternate configs within each seed (seed 0 of every config, then seed 1, ...), so that a change in
 the machine's load spreads over all configs. Wall times are this machine's: compare configs only within one table.
@@ -59,9 +59,9 @@ CONFIGS = {
     "s12_fused_t2": {**S12, "fused_adam": True, "update_threads": 2},
 }
 # BDQ-4: the preset before its search (train.dqn.PRESETS["abduction_4m_discrete"] then: 32 envs, one gradient step of
-# 256 per vec step, lr 5e-4, 2 x 256)
+# 256 per vec step, lr 5e-4, 2 x 256, the env stepped between the gradient steps)
 BDQ_BEFORE = {"branching": True, "hidden": [256, 256], "num_envs": 32, "updates_per_step": 1.0, "batch_size": 256,
-              "lr": 5e-4}
+              "lr": 5e-4, "overlap_env": False}  # overlap_env pinned: round 5 made it the default
 BDQ_CONFIGS = {
     "default": {},
     "n128": {"num_envs": 128},  # a quarter of the gradient steps per frame
@@ -80,6 +80,8 @@ BDQ_CONFIGS = {
     # round 4: a Polyak-averaged target (a small step after every gradient step) instead of a copy every 250
     "eps30k_polyak": {"eps_decay_frames": 30_000, "target_update_every": 1, "target_tau": 0.005},
     "eps30k_g90_polyak": {"eps_decay_frames": 30_000, "gamma": 0.9, "target_update_every": 1, "target_tau": 0.005},
+    # round 5: the env stepped in a thread beside the gradient steps (benchmarks/dqn_overlap.py)
+    "overlap": {"overlap_env": True},
 }
 SEARCHES = {"ppo": (BEFORE, CONFIGS, "abduction_4m", "runs/ppo_wallclock"),
             "bdq": (BDQ_BEFORE, BDQ_CONFIGS, "abduction_4m_discrete", "runs/bdq_wallclock")}

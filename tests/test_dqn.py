@@ -205,3 +205,21 @@ def test_n_step_training_resumes_exactly_and_matches_one_call():
     for p, q in zip(a.q.parameters(), c.q.parameters()):
         assert torch.equal(p, q)
     assert len(b.window.steps) == 2 and b.buffer.steps[:len(b.buffer)].max() == 3
+
+
+def test_the_env_stepping_beside_the_updates_is_deterministic_and_resumable():
+    """overlap_env: the copies step in a thread while the gradient steps run; the same frames and steps as without,
+    the same parameters on a rerun and whether learned in one call or two."""
+    runs = []
+    for calls in ((1_200,), (600, 600)):
+        agent, env = make("abduction_4m_discrete", True, overlap_env=True)
+        for frames in calls:
+            agent.learn(env, frames)
+        runs.append(agent)
+    plain, env = make("abduction_4m_discrete", True, overlap_env=False)
+    plain.learn(env, 1_200)
+    assert runs[0].frames == runs[1].frames == plain.frames and runs[0].grad_steps == plain.grad_steps > 0
+    assert len(runs[0].buffer) == len(plain.buffer)
+    for p, q in zip(runs[0].q.parameters(), runs[1].q.parameters()):
+        assert torch.equal(p, q)
+    assert any(not torch.equal(p, q) for p, q in zip(runs[0].q.parameters(), plain.q.parameters()))

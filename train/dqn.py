@@ -32,10 +32,8 @@ target is r and the wrong next observation is never used. A time-out is a trunca
 lost observation, so that transition is not stored at all (1 transition in 100 on the training split; the agent
 still receives the earlier rewards of the episode, and the state has no clock, so nothing else depends on it).
 Rewards are multiplied by `reward_scale` before storage (the paper's reward is -|error| in degrees per frame).
-With `n_step` > 1 each stored transition carries the discounted return of up to n frames of its copy and the
-observation it bootstraps from, gamma ** steps later (`replay.NStepWindow`: a crash ends the return as terminal, a
-time-out ends it one frame early, bootstrapping from the last observation kept); the returns are not corrected for
-the ε-greedy frames inside them (as in Rainbow's n-step DQN, Hessel et al. 2018).
+With `n_step` > 1 a stored transition holds the return of up to n frames of its copy (`replay.NStepWindow`), not
+corrected for the ε-greedy frames inside it (as in Rainbow's n-step DQN, Hessel et al. 2018).
 
 Counting: a frame is one step of one copy, so a vec step of N copies is N frames; `learn(env, frames)` runs whole vec
 steps until at least `frames` more have been simulated, and `agent.frames` is the exact count. ε, learning start,
@@ -48,6 +46,7 @@ from __future__ import annotations
 
 import copy
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -69,6 +68,8 @@ class DQNConfig:
     lr: float = 5e-4  # Adam
     gamma: float = 0.99  # paper
     n_step: int = 1  # returns over n frames of a copy before bootstrapping (replay.NStepWindow); 1 = one-step
+    overlap_env: bool = True  # step the env in a thread during the gradient steps (they sample the steps before it);
+    # 1.2 x the frames/s of BDQ-4 on 2 cores (docs/training.md "Round 5"); runs before 2026-12-06 had it off
     target_update_every: int = 250  # gradient steps between target updates
     target_tau: float = 1.0  # target <- tau * online + (1 - tau) * target at each update; 1.0 = hard copy
     eps_start: float = 1.0
@@ -264,54 +265,70 @@ class DQNAgent:
         c, n_env = self.cfg, env.num_envs
         end = self.frames + int(frames)
         obs = env.get_observations()["policy"].float().cpu()
-        t_log, f_log = time.perf_counter(), self.frames
-        while self.frames < end:
-            levels = self.act(obs, explore=True)
-            td, rew, done, extras = env.step(torch.as_tensor(levels))
-            next_obs = td["policy"].float().cpu()
-            done, time_out = done.cpu().bool(), extras["time_outs"].cpu().bool()
-            # truncated: the final observation is lost to the auto-reset, so the window stores no transition from it
-            levels_u8 = torch.as_tensor(levels, dtype=torch.uint8)
-            ready = self.window.push(obs, levels_u8, rew.cpu().float() * c.reward_scale, next_obs, done, time_out)
-            if ready is not None:
-                self.buffer.add(*ready)
-            if "log" in extras:  # means over the copies that finished at this step
-                k, log = int(done.sum()), extras["log"]
-                self.stats["episodes"] += k
-                self.stats["return_sum"] += k * log["/episode/return"]
-                self.stats["mae_sum"] += k * log.get("/episode/mae_deg", float("nan"))
-                self.stats["crash_sum"] += k * log.get("/episode/crash_rate", float("nan"))
-            obs = next_obs
-            prev = self.frames
-            self.frames += n_env
-            self.vec_steps += 1
+        self._log_mark = (time.perf_counter(), self.frames)  # the last log's time and frames
+        with ThreadPoolExecutor(1, thread_name_prefix="dqn-env") as pool:  # its thread starts at the first submit
+            while self.frames < end:
+                levels = self.act(obs, explore=True)
+                prev, self.frames = self.frames, self.frames + n_env
+                self.vec_steps += 1
+                if not c.overlap_env:
+                    obs = self._store(obs, levels, env.step(torch.as_tensor(levels)))
+                    self._train()
+                else:  # the copies step in a thread while the gradient steps sample what was stored before
+                    stepping = pool.submit(env.step, torch.as_tensor(levels))
+                    self._train()
+                    obs = self._store(obs, levels, stepping.result())
+                if on_log is not None and self.frames // c.log_every > prev // c.log_every:
+                    on_log(self._log())
+                if on_checkpoint is not None and self.frames // c.checkpoint_every > prev // c.checkpoint_every:
+                    on_checkpoint(self.frames)
 
-            if self.frames >= c.learning_starts and len(self.buffer) >= c.batch_size:
-                if not self.normalizer_fitted:  # fit on the warm-up data, then frozen
-                    data = self.buffer.obs[:len(self.buffer)]
-                    self.q.norm.fit(data)
-                    self.q_target.load_state_dict(self.q.state_dict())
-                    self.normalizer_fitted = True
-                self.update_credit += c.updates_per_step
-                while self.update_credit >= 1.0:
-                    self._update()
-                    self.update_credit -= 1.0
+    def _store(self, obs, levels, stepped):
+        """Put one vec step into the n-step window (and what it completes into the buffer); the next observations."""
+        td, rew, done, extras = stepped
+        next_obs = td["policy"].float().cpu()  # time-outs: the window stores nothing past them (the module's doc)
+        done, time_out = done.cpu().bool(), extras["time_outs"].cpu().bool()
+        levels_u8 = torch.as_tensor(levels, dtype=torch.uint8)
+        ready = self.window.push(obs, levels_u8, rew.cpu().float() * self.cfg.reward_scale, next_obs, done, time_out)
+        if ready is not None:
+            self.buffer.add(*ready)
+        if "log" in extras:  # means over the copies that finished at this step
+            k, log = int(done.sum()), extras["log"]
+            self.stats["episodes"] += k
+            self.stats["return_sum"] += k * log["/episode/return"]
+            self.stats["mae_sum"] += k * log.get("/episode/mae_deg", float("nan"))
+            self.stats["crash_sum"] += k * log.get("/episode/crash_rate", float("nan"))
+        return next_obs
 
-            if on_log is not None and self.frames // c.log_every > prev // c.log_every:
-                now = time.perf_counter()
-                s, ep, up = self.stats, max(self.stats["episodes"], 1), max(self.stats["updates"], 1)
-                nan = float("nan")
-                on_log({"frames": self.frames, "fps": (self.frames - f_log) / max(now - t_log, 1e-9),
-                        "mean_return": s["return_sum"] / ep if s["episodes"] else nan,
-                        "mae_deg": s["mae_sum"] / ep if s["episodes"] else nan,
-                        "crash_rate": s["crash_sum"] / ep if s["episodes"] else nan,
-                        "loss": s["loss_sum"] / up if s["updates"] else nan,
-                        "q_mean": s["q_sum"] / up if s["updates"] else nan,
-                        "epsilon": self.epsilon(), "episodes": s["episodes"], "grad_steps": self.grad_steps})
-                self._reset_stats()
-                t_log, f_log = now, self.frames
-            if on_checkpoint is not None and self.frames // c.checkpoint_every > prev // c.checkpoint_every:
-                on_checkpoint(self.frames)
+    def _train(self) -> None:
+        """The gradient steps owed after a vec step (none before `learning_starts` frames and a full batch)."""
+        c = self.cfg
+        if self.frames >= c.learning_starts and len(self.buffer) >= c.batch_size:
+            if not self.normalizer_fitted:  # fit on the warm-up data, then frozen
+                data = self.buffer.obs[:len(self.buffer)]
+                self.q.norm.fit(data)
+                self.q_target.load_state_dict(self.q.state_dict())
+                self.normalizer_fitted = True
+            self.update_credit += c.updates_per_step
+            while self.update_credit >= 1.0:
+                self._update()
+                self.update_credit -= 1.0
+
+    def _log(self) -> dict:
+        """What on_log gets (means since the last log), and a new log period."""
+        now, (t_log, f_log) = time.perf_counter(), self._log_mark
+        s, ep, up = self.stats, max(self.stats["episodes"], 1), max(self.stats["updates"], 1)
+        nan = float("nan")
+        info = {"frames": self.frames, "fps": (self.frames - f_log) / max(now - t_log, 1e-9),
+                "mean_return": s["return_sum"] / ep if s["episodes"] else nan,
+                "mae_deg": s["mae_sum"] / ep if s["episodes"] else nan,
+                "crash_rate": s["crash_sum"] / ep if s["episodes"] else nan,
+                "loss": s["loss_sum"] / up if s["updates"] else nan,
+                "q_mean": s["q_sum"] / up if s["updates"] else nan,
+                "epsilon": self.epsilon(), "episodes": s["episodes"], "grad_steps": self.grad_steps}
+        self._reset_stats()
+        self._log_mark = (now, self.frames)
+        return info
 
     # --- checkpoints -------------------------------------------------------------------------------------------------
     def state_dict(self) -> dict:
