@@ -65,7 +65,7 @@ class NStepWindow:
         self.steps.append((obs, act, rew, next_obs, done, time_out))
         if len(self.steps) < self.n:
             return None
-        obs0, act0, rew0, boot, done0, out0 = self.steps.pop(0) if self.n == 1 else self.steps[0]
+        obs0, act0, rew0, boot, done0, out0 = self.steps[0]
         keep, ret, boot = ~out0, rew0.clone(), boot.clone()
         term, k_boot = done0 & ~out0, torch.ones(len(obs0), dtype=torch.uint8)
         open_ = ~done0
@@ -74,8 +74,7 @@ class NStepWindow:
             ret[use] += self.gamma ** k * r[use]
             boot[use], k_boot[use], term[use] = nxt[use], k + 1, done[use]
             open_ = use & ~done
-        if self.n > 1:
-            self.steps.pop(0)
+        self.steps.pop(0)
         return obs0[keep], act0[keep], ret[keep], boot[keep], term[keep], k_boot[keep]
 
     def state_dict(self) -> list:
