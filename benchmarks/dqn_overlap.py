@@ -1,5 +1,5 @@
-"""BDQ's frames/s with the env stepped in a thread beside the gradient steps (`DQNConfig.overlap_env`) against between
-them (the default), side by side in one run.
+"""BDQ's frames/s with the env stepped in a thread beside the gradient steps (`DQNConfig.overlap_env`, the default
+since 2026-12-06) against between them (before), side by side in one run.
 
     .venv/bin/python benchmarks/dqn_overlap.py [--repeats 5] [--frames 15000] [--task abduction_4m_discrete]
 
@@ -39,8 +39,8 @@ def main(argv=None) -> int:
     for _ in range(args.repeats):
         for overlap in (False, True):
             fps[overlap].append(frames_per_s(args.task, overlap, args.frames))
-    for overlap, name in ((False, "between the updates (default)"), (True, "beside the updates (overlap_env)")):
-        print(f"{name:34s} " + " ".join(f"{f:,.0f}" for f in fps[overlap]) + " frames/s")
+    for overlap, name in ((False, "between the updates (before)"), (True, "beside the updates (the default)")):
+        print(f"{name:33s} " + " ".join(f"{f:,.0f}" for f in fps[overlap]) + " frames/s")
     print(f"best: {max(fps[True]):,.0f} / {max(fps[False]):,.0f} = {max(fps[True]) / max(fps[False]):.2f} x")
     return 0
 
