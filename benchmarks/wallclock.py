@@ -82,6 +82,8 @@ BDQ_CONFIGS = {
     "eps30k_g90_polyak": {"eps_decay_frames": 30_000, "gamma": 0.9, "target_update_every": 1, "target_tau": 0.005},
     # round 5: the env stepped in a thread beside the gradient steps (benchmarks/dqn_overlap.py)
     "overlap": {"overlap_env": True},
+    # round 6: round 3's best with it, on round 5's budget
+    "overlap_eps30k_g90": {"overlap_env": True, "eps_decay_frames": 30_000, "gamma": 0.9},
 }
 SEARCHES = {"ppo": (BEFORE, CONFIGS, "abduction_4m", "runs/ppo_wallclock"),
             "bdq": (BDQ_BEFORE, BDQ_CONFIGS, "abduction_4m_discrete", "runs/bdq_wallclock")}
