@@ -23,11 +23,10 @@ class ReplayBuffer:
     def __len__(self) -> int:
         return self.size
 
-    def add(self, obs, act, rew, next_obs, term, steps=None) -> None:
+    def add(self, obs, act, rew, next_obs, term, steps) -> None:
         idx = (self.pos + torch.arange(len(obs))) % self.capacity
         self.obs[idx], self.act[idx], self.rew[idx] = obs, act, rew
-        self.next_obs[idx], self.term[idx] = next_obs, term
-        self.steps[idx] = 1 if steps is None else steps
+        self.next_obs[idx], self.term[idx], self.steps[idx] = next_obs, term, steps
         self.pos = int((self.pos + len(obs)) % self.capacity)
         self.size = min(self.size + len(obs), self.capacity)
 
@@ -42,7 +41,7 @@ class ReplayBuffer:
     def load_state_dict(self, d: dict) -> None:
         s = d["size"]
         for key in FIELDS:
-            if key in d:  # checkpoints from before n-step returns hold no "steps": all 1
+            if key != "steps" or key in d:  # checkpoints from before n-step returns hold no "steps": all 1
                 getattr(self, key)[:s] = d[key]
         self.pos, self.size = d["pos"], s
 
