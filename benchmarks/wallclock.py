@@ -8,7 +8,8 @@ the frames/s.
 
 PPO configs are overrides of `PPOConfig`'s defaults before its search (`BEFORE`: 256 envs, 5 epochs x 4
 mini-batches, 24 steps; `CONFIGS` below; `default` is `BEFORE` itself; rounds 1-2 chose `e1m8t1_n64`, round 3
-`n64_s12`; round 4 tried `s12_*` from it and kept it; round 5 chose `s12_fused`, today's `PPOConfig()`). BDQ configs
+`n64_s12`; round 4 tried `s12_*` from it and kept it; round 5 chose `s12_fused`, today's `PPOConfig()`; round 6
+tried the overlap, not kept). BDQ configs
 (`BDQ_CONFIGS`, task `abduction_4m_discrete`) are overrides of the task's preset before its search (`BDQ_BEFORE`,
 `train.dqn.PRESETS`; round 1 fewer gradient steps per frame, rounds 2-4 n-step returns, exploration, gamma and the
 target update, none kept; round 5 the env stepped beside the updates, kept). Runs are normal
@@ -24,8 +25,9 @@ import statistics
 from pathlib import Path
 
 # PPOConfig's defaults before the search (pinned where a round changed the default: steps_per_env in round 3, the
-# optimiser in round 5)
-BEFORE = {"num_envs": 256, "num_learning_epochs": 5, "num_mini_batches": 4, "steps_per_env": 24, "fused_adam": False}
+# optimiser in round 5; overlap_env, added in round 6, pinned off so the search's runs stay what they were)
+BEFORE = {"num_envs": 256, "num_learning_epochs": 5, "num_mini_batches": 4, "steps_per_env": 24, "fused_adam": False,
+          "overlap_env": False}
 N64 = {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64}  # rounds 1-2's choice
 S12 = {**N64, "steps_per_env": 12}  # round 3's choice
 CONFIGS = {
@@ -57,6 +59,10 @@ CONFIGS = {
     "s12_fused": {**S12, "fused_adam": True},
     "s12_m4_fused": {**S12, "num_mini_batches": 4, "fused_adam": True},
     "s12_fused_t2": {**S12, "fused_adam": True, "update_threads": 2},
+    # round 6: the next rollout collected during the update (one update behind), alone and with twice the KL target
+    # (the KL the adaptive schedule measures then includes the previous update's step)
+    "s12_overlap": {**S12, "fused_adam": True, "overlap_env": True},
+    "s12_overlap_kl02": {**S12, "fused_adam": True, "overlap_env": True, "desired_kl": 0.02},
 }
 # BDQ-4: the preset before its search (train.dqn.PRESETS["abduction_4m_discrete"] then: 32 envs, one gradient step of
 # 256 per vec step, lr 5e-4, 2 x 256, the env stepped between the gradient steps)

@@ -46,6 +46,7 @@ def _kill_after_first_checkpoint(cmd, out, after_s=0.3):
 @pytest.mark.slow
 @pytest.mark.parametrize("task,algo,frames,cfg,eval_every", [
     ("abduction_ssp", "ppo", 2048, PPO, 512),
+    ("abduction_4m", "ppo", 2048, {**PPO, "overlap_env": True}, 512),  # the rollout collected beside the update
     ("abduction_4m_discrete", "bdq", 4000, DQN, 1600),
     ("track_3dof", "ppo", 768, PPO, 256),  # the 3-DOF batched env's state restored too
 ])

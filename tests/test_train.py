@@ -197,3 +197,59 @@ def test_anneal_kl_lowers_the_kl_target_linearly_over_the_budget(tmp_path, monke
     seen.clear()
     train("abduction_ssp", "ppo", frames=256, out=tmp_path / "b", config=_config(tmp_path), eval_every=10**9)
     assert seen == [0.01, 0.01]
+
+
+@pytest.mark.parametrize("overlap,lag", [(False, 0), (True, 1)])
+def test_each_update_learns_from_the_policy_that_collected_its_rollout(tmp_path, monkeypatch, overlap, lag):
+    """The rollout an update learns from was acted by the policy as it was before that update (overlap_env off), or
+    before the update before it (on: the next rollout is collected during the update); checked by re-running those
+    saved policies on the stored observations: their means are the stored ones."""
+    import copy
+
+    from rsl_rl.algorithms import PPO
+
+    seen, update, actor = [], PPO.update, []
+
+    def spy(self):
+        if not actor:  # a module to run the saved parameters (copied before any update's forward)
+            actor.append(copy.deepcopy(self.actor))
+        seen.append(({k: v.clone() for k, v in self.actor.state_dict().items()}, self.storage.observations.clone(),
+                     self.storage.distribution_params[0].clone()))
+        return update(self)
+    monkeypatch.setattr(PPO, "update", spy)
+    train("abduction_4m", "ppo", frames=640, out=tmp_path / "run", config=_config(tmp_path, overlap_env=overlap),
+          eval_every=10**9)
+    assert len(seen) == 5
+
+    def means(k, obs):
+        actor[0].load_state_dict(seen[k][0])
+        with torch.inference_mode():
+            return actor[0](obs).numpy()
+    for k in range(len(seen)):
+        obs, stored = seen[k][1], seen[k][2].numpy()
+        np.testing.assert_allclose(means(max(k - lag, 0), obs), stored, rtol=1e-5, atol=1e-6)  # the first rollout
+        # is collected before any update either way
+        if k >= 2 and lag:  # and not by the policy of its own update
+            assert not np.allclose(means(k, obs), stored, atol=1e-6)
+
+
+def test_collecting_beside_the_update_is_deterministic_and_resumes_exactly(tmp_path):
+    """overlap_env: runs repeat, and a run stopped at a checkpoint and resumed to a larger budget (the checkpoint
+    carries the rollout collected but not yet learned from) ends where the uninterrupted one does."""
+    cfg = _config(tmp_path, overlap_env=True)
+    ends = []
+    for name in ("a", "b"):
+        ends.append(train("abduction_4m", "ppo", frames=768, out=tmp_path / name, config=cfg, eval_every=10**9))
+    out = tmp_path / "c"
+    train("abduction_4m", "ppo", frames=384, out=out, config=cfg, eval_every=10**9)
+    (out / "metrics.json").unlink()  # as if killed after the last checkpoint
+    ends.append(train("abduction_4m", "ppo", frames=768, out=out, config=cfg, resume=True, eval_every=10**9))
+    plain = train("abduction_4m", "ppo", frames=768, out=tmp_path / "plain", config=_config(tmp_path),
+                  eval_every=10**9)
+    x = torch.randn(5, 8, generator=torch.Generator().manual_seed(1))
+    actions = [load_policy(str(tmp_path / name))[0](x) for name in ("a", "b", "c", "plain")]
+    for end, act in zip(ends[1:], actions[1:3]):
+        assert end["mae_deg"] == pytest.approx(ends[0]["mae_deg"], rel=1e-9)
+        torch.testing.assert_close(act, actions[0], rtol=1e-6, atol=1e-9)
+    assert not torch.allclose(actions[3], actions[0])
+    assert plain["frames"] == ends[0]["frames"] == 768

@@ -8,13 +8,17 @@ Networks as in the paper: one hidden layer of 256 for one muscle, 3 x 250 for fo
 from __future__ import annotations
 
 import contextlib
+import copy
 import io
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 import torch
 from rsl_rl.runners import OnPolicyRunner
+from rsl_rl.storage import RolloutStorage
+from tensordict import TensorDict
 
 from shoulder_bench import protocol
 from shoulder_bench.train.config import at_least, one_of, positive, sizes, unit_interval
@@ -48,6 +52,9 @@ class PPOConfig:
     update_threads: int = 1  # torch threads in alg.update() only (collection and inference keep 1: the env's
     # rollout threads own the cores then)
     fused_adam: bool = True  # torch's fused Adam step in place of rsl-rl's foreach Adam (fuse_optimizer)
+    overlap_env: bool = False  # collect the next rollout in a thread during the update, with the policy from before
+    # it (`Collector`: each update learns from the policy one update behind); docs/training.md "Round 6": 1.27 x the
+    # frames/s but 1.7 x the frames to 1 deg, so off
     checkpoint_every: int = 10  # iterations
 
 
@@ -159,10 +166,13 @@ def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval,
     alg = runner.alg
     if cfg.fused_adam:
         fuse_optimizer(alg)
-    if run.checkpoint is not None:
+    collector = Collector(alg, cfg.steps_per_env) if cfg.overlap_env else None  # draws its seed before a resume
+    if run.checkpoint is not None:  # restores torch's RNG, so after that draw
         try:
             alg.load(run.checkpoint["state"]["alg"], None, True)
             torch.set_rng_state(run.checkpoint["state"]["torch_rng"])
+            if collector is not None:
+                collector.load_state_dict(run.checkpoint["state"]["collector"])
         except (KeyError, RuntimeError, TypeError) as exc:
             raise ValueError(f"{run.dir / 'checkpoint.pt'} holds no PPO state this config can load ({exc}); delete "
                              f"it to start over") from exc
@@ -172,36 +182,131 @@ def train(run, venv, cfg: PPOConfig, frames: int, evaluate_every, on_eval,
     alg.train_mode()
     per_iteration = frames_per_iteration(cfg)
     iteration, next_eval = run.frames // per_iteration, evaluate_every(run.frames)
-    while run.frames < frames:
-        t0 = time.perf_counter()
-        if cfg.anneal_kl:  # the target of this iteration's update (rsl-rl reads alg.desired_kl there)
-            alg.desired_kl = cfg.desired_kl * max(1.0 - run.frames / frames, 0.0)
-        with torch.inference_mode():
-            for _ in range(cfg.steps_per_env):
-                obs, rewards, dones, extras = env.step(alg.act(obs))
-                alg.process_env_step(obs, rewards, dones, extras)
-                run.returns.extend(venv.finished_returns())
-            alg.compute_returns(obs)
-        threads = torch.get_num_threads()
-        torch.set_num_threads(cfg.update_threads)
-        try:
-            losses = alg.update()
-        finally:
-            torch.set_num_threads(threads)
-        iteration += 1
-        dt = time.perf_counter() - t0
-        scalars = {f"loss/{k}": v for k, v in losses.items()}
-        std = float(alg.get_policy().output_std.detach().mean())
-        scalars.update({"perf/fps": per_iteration / dt, "policy/std": std,
-                        "policy/learning_rate": alg.learning_rate,
-                        "train/mean_return": np.mean(run.returns) if run.returns else None})
-        run.advance(per_iteration, scalars)
-        if run.frames >= next_eval or run.frames >= frames:
-            on_eval(export(alg, cfg.error_features, env.dofs))
-            next_eval = evaluate_every(run.frames)
-        if iteration % cfg.checkpoint_every == 0 or run.frames >= frames:
-            run.save_checkpoint({"alg": alg.save(), "torch_rng": torch.get_rng_state()})
+    with ThreadPoolExecutor(1, thread_name_prefix="ppo-env") as pool:  # its thread starts at the first submit
+        while run.frames < frames:
+            t0 = time.perf_counter()
+            if cfg.anneal_kl:  # the target of this iteration's update (rsl-rl reads alg.desired_kl there)
+                alg.desired_kl = cfg.desired_kl * max(1.0 - run.frames / frames, 0.0)
+            if collector is None:
+                obs = collect(alg, env, obs, cfg.steps_per_env, run.returns)
+                losses = update(alg, cfg.update_threads)
+            else:
+                if not collector.pending:  # the first rollout
+                    obs = collector.collect(env, obs, run.returns)
+                collecting = collector.start(pool, env, obs, run.returns)
+                losses = update(alg, cfg.update_threads)
+                obs = collector.finish(collecting)
+            iteration += 1
+            dt = time.perf_counter() - t0
+            scalars = {f"loss/{k}": v for k, v in losses.items()}
+            std = float(alg.get_policy().output_std.detach().mean())
+            scalars.update({"perf/fps": per_iteration / dt, "policy/std": std,
+                            "policy/learning_rate": alg.learning_rate,
+                            "train/mean_return": np.mean(run.returns) if run.returns else None})
+            run.advance(per_iteration, scalars)
+            if run.frames >= next_eval or run.frames >= frames:
+                on_eval(export(alg, cfg.error_features, env.dofs))
+                next_eval = evaluate_every(run.frames)
+            if iteration % cfg.checkpoint_every == 0 or run.frames >= frames:
+                state = {"alg": alg.save(), "torch_rng": torch.get_rng_state()}
+                if collector is not None:
+                    state["collector"] = collector.state_dict()
+                run.save_checkpoint(state)
     return export(alg, cfg.error_features, env.dofs)
+
+
+def collect(agent, env, obs, steps: int, returns) -> TensorDict:
+    """One rollout of `steps` steps per env into `agent.storage`, with its returns and advantages; the last
+    observations. `agent`: rsl-rl's PPO (the learner, or `Collector.behaviour`)."""
+    with torch.inference_mode():
+        for _ in range(steps):
+            obs, rewards, dones, extras = env.step(agent.act(obs))
+            agent.process_env_step(obs, rewards, dones, extras)
+            returns.extend(env.venv.finished_returns())
+        agent.compute_returns(obs)
+    return obs
+
+
+def update(alg, threads: int) -> dict:
+    """`alg.update()` with `threads` torch threads (the rollout threads of the env own the cores otherwise)."""
+    before = torch.get_num_threads()
+    torch.set_num_threads(threads)
+    try:
+        return alg.update()
+    finally:
+        torch.set_num_threads(before)
+
+
+ROLLOUT = ("actions", "rewards", "dones", "values", "actions_log_prob", "returns", "advantages")
+
+
+class Collector:
+    """`PPOConfig.overlap_env`: the env steps while the update runs. A copy of the policy (`behaviour`: rsl-rl's PPO
+    with its own actor, critic, rollout storage and action noise) collects the next rollout in a thread during
+    `alg.update()` on the last one; the copy is the policy from before that update, so each update learns from a
+    rollout of the policy one update behind (asynchronous PPO with a policy lag of one update). PPO's ratio is taken
+    to the log-probabilities stored with the rollout, so the clip bounds the step from the policy that acted, and the
+    values and advantages are the acting critic's. Why a thread is enough: MuJoCo's rollout threads and torch's
+    kernels both release the GIL. The copy's action noise has its own generator (the update's shuffling draws from
+    torch's global one in the other thread), so a run is deterministic; the checkpoint carries the collected rollout
+    not yet learned from and the generator, so a resumed run equals the uninterrupted one."""
+
+    def __init__(self, alg, steps: int):
+        self.alg, self.steps = alg, steps
+        b = self.behaviour = copy.copy(alg)  # its hyperparameters (gamma, lam, ...) are the learner's
+        b.actor, b.critic = copy.deepcopy(alg.actor), copy.deepcopy(alg.critic)
+        b.storage, b.transition = copy.deepcopy(alg.storage), RolloutStorage.Transition()
+        self.generator = torch.Generator().manual_seed(int(torch.randint(2**62, (1,))))
+        dist = b.actor.distribution  # rsl-rl's Gaussian samples with torch's global generator: draw from ours
+        dist.sample = lambda: torch.normal(dist.mean, dist.std, generator=self.generator)
+        self.pending = False  # the learner's storage holds a collected rollout not yet learned from
+
+    def collect(self, env, obs, returns) -> TensorDict:
+        """A rollout with the learner's current policy into the learner's storage (nothing beside it)."""
+        self._sync()
+        obs = collect(self.behaviour, env, obs, self.steps, returns)
+        self._swap()
+        return obs
+
+    def start(self, pool, env, obs, returns):
+        """Start collecting the next rollout in `pool`'s thread with the policy as it is now (a future)."""
+        self._sync()
+        return pool.submit(collect, self.behaviour, env, obs, self.steps, returns)
+
+    def finish(self, future) -> TensorDict:
+        """After `alg.update()`: wait for the rollout `start` began and hand it to the learner; the last
+        observations."""
+        obs = future.result()
+        self._swap()
+        return obs
+
+    def _sync(self) -> None:
+        self.behaviour.actor.load_state_dict(self.alg.actor.state_dict())
+        self.behaviour.critic.load_state_dict(self.alg.critic.state_dict())
+
+    def _swap(self) -> None:
+        self.alg.storage, self.behaviour.storage = self.behaviour.storage, self.alg.storage
+        self.pending = True
+
+    def state_dict(self) -> dict:
+        st = self.alg.storage
+        rollout = None if not self.pending else {
+            "observations": {k: v.clone() for k, v in st.observations.items()},
+            "distribution_params": [p.clone() for p in st.distribution_params], "step": st.step,
+            **{k: getattr(st, k).clone() for k in ROLLOUT}}
+        return {"generator": self.generator.get_state(), "rollout": rollout}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.generator.set_state(state["generator"])
+        rollout, st = state["rollout"], self.alg.storage
+        if rollout is not None:
+            for key, value in rollout["observations"].items():
+                st.observations[key].copy_(value)
+            for key in ROLLOUT:
+                setattr(st, key, rollout[key].clone())
+            st.distribution_params = tuple(p.clone() for p in rollout["distribution_params"])
+            st.step = rollout["step"]
+            self.pending = True
 
 
 def fuse_optimizer(alg) -> None:

@@ -38,8 +38,8 @@ BUDGET_FREE = ("frames",)  # algorithm config fields that are the run's budget, 
 # foreach Adam (fused_adam False), a fixed KL target (anneal_kl False); DQN and BDQ: one-step returns (n_step 1), the
 # env stepped between the gradient steps (overlap_env False)
 DQN_ADDED = {"n_step": 1, "overlap_env": False}
-ADDED_FIELDS = {"ppo": {"update_threads": 1, "fused_adam": False, "anneal_kl": False}, "dqn": DQN_ADDED,
-                "bdq": DQN_ADDED}
+ADDED_FIELDS = {"ppo": {"update_threads": 1, "fused_adam": False, "anneal_kl": False, "overlap_env": False},
+                "dqn": DQN_ADDED, "bdq": DQN_ADDED}
 
 
 def with_added_fields(algo: str, config: dict) -> dict:
