@@ -107,8 +107,8 @@ def frames_per_iteration(cfg: DQNConfig) -> int:
 PRESETS = {
     "abduction_ssp_discrete": {},
     "abduction_4m_discrete": {"branching": True, "hidden": (256, 256), "frames": 500_000},
-    "track_3dof_discrete": {"branching": True, "hidden": (256, 256), "frames": 500_000},  # the 4-muscle one, unsearched
-}
+    "track_3dof_discrete": {"branching": True, "hidden": (256, 256), "frames": 500_000, "lr": 2.5e-4},  # half the lr
+}  # track_3dof_discrete: docs/tasks_3dof.md "BDQ's preset searched" (before 2026-12-06 the 4-muscle one, lr 5e-4)
 
 
 def config_for(task: str, **overrides) -> DQNConfig:
