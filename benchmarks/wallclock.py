@@ -90,6 +90,8 @@ BDQ_CONFIGS = {
     "overlap": {"overlap_env": True},
     # round 6: round 3's best with it, on round 5's budget
     "overlap_eps30k_g90": {"overlap_env": True, "eps_decay_frames": 30_000, "gamma": 0.9},
+    # round 7: half the learning rate, as the 3-DOF task's preset since 2026-12-06 (docs/tasks_3dof.md)
+    "overlap_lr25": {"overlap_env": True, "lr": 2.5e-4},
 }
 SEARCHES = {"ppo": (BEFORE, CONFIGS, "abduction_4m", "runs/ppo_wallclock"),
             "bdq": (BDQ_BEFORE, BDQ_CONFIGS, "abduction_4m_discrete", "runs/bdq_wallclock")}
