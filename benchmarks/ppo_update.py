@@ -34,13 +34,8 @@ def rollout_and_alg(task: str):
     with contextlib.redirect_stdout(io.StringIO()):
         runner = OnPolicyRunner(env, ppo.rsl_config(cfg, venv.num_actions), log_dir=None, device="cpu")
     alg = runner.alg
-    obs = env.get_observations()
     alg.train_mode()
-    with torch.inference_mode():
-        for _ in range(cfg.steps_per_env):
-            obs, rewards, dones, extras = env.step(alg.act(obs))
-            alg.process_env_step(obs, rewards, dones, extras)
-        alg.compute_returns(obs)
+    ppo.collect(alg, env, env.get_observations(), cfg.steps_per_env, [])
     venv.close()
     return alg
 
