@@ -1,6 +1,7 @@
 """Does the taut band's line of action depend on the activation? (docs/fem.md "Taut bands", "The activation")
 
     .venv/bin/python benchmarks/band_activation.py --tendon ssp [--n 40] [--seed 0]   (≈ 1-5 s a pose)
+    .venv/bin/python benchmarks/band_activation.py --tendon tma --along PLANE ROTATION E0 E1 [--step 2.5]
 
 The band tables hold one line of action per pose, the band's at a = 1, and `fem verify --bands` checks them at a = 1
 only. At a lower activation the tendon's force F(L_MT, a) is smaller, but the band's line may move: this measures by
@@ -10,7 +11,9 @@ lower level of ACTIVATIONS (`footprint_compare.continued`: Newton from the equil
 from rest to each level is solved too, to see whether it reaches the same equilibrium. At a grid pose the table's
 line is the band's at a = 1, so the scheme's error at level a is F(L_MT(q), a) |r_band(q, a) - r_band(q, 1)| per
 coordinate, reported as the verify reports its errors: in % of the tendon's peak |F(L_MT, 1) r_band| over its grid
-(`band_verify.peak_torque`), against the verify's bound (`verify_full.HELD_OUT_TOL`).
+(`band_verify.peak_torque`), against the verify's bound (`verify_full.HELD_OUT_TOL`). `--along`: instead of the
+draw, the poses along elevation from E0 to E1 deg every `--step` at that plane and rotation (off the grid too): how
+the move varies from one pose to the next (docs/fem.md "The activation tabled").
 """
 from __future__ import annotations
 
@@ -51,10 +54,18 @@ def main() -> None:
     ap.add_argument("--tendon", choices=FOOTPRINT_TENDONS, required=True)
     ap.add_argument("--n", type=int, default=40, help="poses drawn from the table's grid")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--along", nargs=4, type=float, metavar=("PLANE", "ROTATION", "E0", "E1"),
+                    help="the poses along elevation E0..E1 deg at this plane and rotation instead of the draw")
+    ap.add_argument("--step", type=float, default=2.5, help="with --along: deg between the poses")
     args = ap.parse_args()
     t, pose = args.tendon, full_arm.Pose()
-    poses = grid_poses(t)
-    poses = poses[np.sort(np.random.default_rng(args.seed).choice(len(poses), min(args.n, len(poses)), False))]
+    if args.along:
+        plane, rotation, e0, e1 = args.along
+        elevations = np.arange(e0, e1 + 1e-9, args.step)
+        poses = np.column_stack([np.full_like(elevations, plane), elevations, np.full_like(elevations, rotation)])
+    else:
+        poses = grid_poses(t)
+        poses = poses[np.sort(np.random.default_rng(args.seed).choice(len(poses), min(args.n, len(poses)), False))]
     law = TendonLaw.load("fem", tendons=(t,))
     peak = peak_torque(BandTable(table_path(t, full_arm.TABLE_FOLDER)), law, pose)
     lengths = pose.tendon_geometry(poses, (t,))[0]
