@@ -301,17 +301,40 @@ def test_an_interrupted_build_resumes_from_the_poses_it_saved(cell, monkeypatch,
 
 def test_the_continuation_down_in_activation_halves_a_step_newton_cannot_take():
     """`footprint_compare.continued`: a step Newton fails on is taken in halves (at most HALVINGS times); beyond that
-    the level and those below it are NaN. A stand-in sheet whose Newton converges only over steps of at most 0.1."""
+    the level and those below it are NaN. A stand-in sheet whose Newton converges only over steps of at most 0.1 and
+    whose ramp from rest never converges."""
     class Sheet:
         def solve_from(self, pose_deg, start, activation):
             if abs(activation - start) > 0.1 + 1e-12:
                 raise NoConvergence("step too long")
-            return {"moment_arm_m": np.full(3, activation), "nodes": activation}
+            return {"moment_arm_m": np.full(3, activation), "nodes": activation, "energy_J": 0.0}
+
+        def solve(self, pose_deg, activation):
+            raise NoConvergence("no ramp")
 
     arms = footprint_compare.continued(Sheet(), (0, 0, 0), 1.0, (0.75, 0.5))  # steps of 0.25: halved twice (0.0625)
     np.testing.assert_allclose(arms, [[0.75] * 3, [0.5] * 3])
     arms = footprint_compare.continued(Sheet(), (0, 0, 0), 1.0, (0.9, 0.0))  # 0.9 at 1/8 of the step: 0.1125, too long
     assert np.allclose(arms[0], 0.9) and np.isnan(arms[1]).all()
+
+
+def test_below_a_1_the_band_keeps_the_lower_energy_of_the_continued_and_the_ramped_equilibrium():
+    """`footprint_compare.continued`: at each level the least-energy of the equilibrium continued from the level above
+    and the ramp's from rest; the next level continues from the one kept. A stand-in sheet with two branches: the
+    continuation stays on the branch it starts on ("high" from a = 1), the ramp lands on "low", which has less energy
+    at a = 0.5 only."""
+    class Sheet:
+        def solve_from(self, pose_deg, start, activation):
+            branch = start if start in ("high", "low") else "low"  # from the ramp's nodes: its branch
+            energy = {"high": 1.0, "low": 2.0 if activation > 0.6 else 0.0}[branch]
+            return {"moment_arm_m": np.full(3, {"high": 1.0, "low": -1.0}[branch]), "nodes": branch,
+                    "energy_J": energy}
+
+        def solve(self, pose_deg, activation):
+            return {"nodes": "ramp"}
+
+    arms = footprint_compare.continued(Sheet(), (0, 0, 0), "high", (0.75, 0.5, 0.25))
+    np.testing.assert_allclose(arms[:, 0], [1.0, -1.0, -1.0])  # a = 0.75: "high" is lower; then "low", kept below
 
 
 def test_isps_band_presses_on_the_humeral_head_and_the_others_on_their_wrap_objects(monkeypatch):

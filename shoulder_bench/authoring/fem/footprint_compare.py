@@ -12,16 +12,26 @@ HALVINGS = 3  # a continuation step where Newton fails is halved, at most this m
 
 
 def continued(sheet: FootprintSheet, pose_deg, nodes: np.ndarray, activations) -> np.ndarray:
-    """(L, 3) m: the moment arms of the equilibrium `nodes` (at `pose_deg`, a = 1) continued on the same branch down
-    to each of `activations` (descending; Newton from the level above, `FootprintSheet.solve_from`, the step halved
-    where it fails, HALVINGS times at most); NaN from the level where it still fails."""
+    """(L, 3) m: the band's moment arms at each of `activations` (descending) below the equilibrium `nodes` (at
+    `pose_deg`, a = 1). At each level the least-energy of two equilibria: the one continued from the level above
+    (Newton, `FootprintSheet.solve_from`, a step where it fails halved, HALVINGS times at most) and the ramp's from rest
+    at that level (`solve`, then `solve_from` for its energy); the next level continues from the one kept. Below a = 1
+    the band has several equilibria at some poses, and the continuation alone lands on a higher one at some poses and
+    not at their neighbours (`benchmarks/band_activation.py --along`); the least energy is the rule the tables hold at
+    a = 1 too (`bands.least_energy`). NaN from the level where neither converges."""
     arms, above = np.full((len(activations), 3), np.nan), 1.0
     for i, a in enumerate(activations):
-        try:
-            sol = _step(sheet, pose_deg, nodes, above, a, HALVINGS)
-        except NoConvergence:
+        found = []
+        for solve in (lambda: _step(sheet, pose_deg, nodes, above, a, HALVINGS),
+                      lambda: sheet.solve_from(pose_deg, sheet.solve(pose_deg, a)["nodes"], a)):
+            try:
+                found.append(solve())
+            except NoConvergence:
+                pass
+        if not found:
             break
-        arms[i], nodes, above = sol["moment_arm_m"], sol["nodes"], a
+        best = min(found, key=lambda sol: sol["energy_J"])
+        arms[i], nodes, above = best["moment_arm_m"], best["nodes"], a
     return arms
 
 
@@ -45,9 +55,9 @@ def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None =
     length over the reference's), its F0 (N). progress: called after each pose. surface: the sheet's contact surface
     (`SURFACES`). pose: the model posed (default: the task model, compiled anew). rest: the sheet's stress-free
     state (`RESTS`). offsets_deg (K, 3): each pose's least-energy equilibrium from those starts
-    (`FootprintSheet.solve_least_energy`) instead of the ramp's. activations (levels below 1, descending): the
-    equilibrium continued on the same branch from a = 1 to each (Newton from the level above, `solve_from`; rest="pose"
-    only), its arms in "fem_m_at" (P, L, 3), NaN where Newton fails. A ValueError if the tendon has no sheet
+    (`FootprintSheet.solve_least_energy`) instead of the ramp's. activations (levels below 1, descending): the band
+    at each, from the a = 1 equilibrium down (`continued`: the least-energy of the continuation and the ramp at each
+    level; rest="pose" only), its arms in "fem_m_at" (P, L, 3), NaN where neither converges. A ValueError if the tendon has no sheet
     (`FootprintSheet`). The footprint commands' loop over poses (the report, the taut band's grid check, the band
     tables and their verify)."""
     sheet = FootprintSheet(tendon, resolution, width_m, pose=pose, surface=surface, rest=rest)
