@@ -22,10 +22,10 @@ def continued(sheet: FootprintSheet, pose_deg, nodes: np.ndarray, activations) -
     arms, above = np.full((len(activations), 3), np.nan), 1.0
     for i, a in enumerate(activations):
         found = []
-        for solve in (lambda: _step(sheet, pose_deg, nodes, above, a, HALVINGS),
-                      lambda: sheet.solve_from(pose_deg, sheet.solve(pose_deg, a)["nodes"], a)):
+        for start in ("continued", "ramp"):
             try:
-                found.append(solve())
+                found.append(_step(sheet, pose_deg, nodes, above, a, HALVINGS) if start == "continued"
+                             else sheet.solve_from(pose_deg, sheet.solve(pose_deg, a)["nodes"], a))
             except NoConvergence:
                 pass
         if not found:
@@ -57,9 +57,9 @@ def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None =
     state (`RESTS`). offsets_deg (K, 3): each pose's least-energy equilibrium from those starts
     (`FootprintSheet.solve_least_energy`) instead of the ramp's. activations (levels below 1, descending): the band
     at each, from the a = 1 equilibrium down (`continued`: the least-energy of the continuation and the ramp at each
-    level; rest="pose" only), its arms in "fem_m_at" (P, L, 3), NaN where neither converges. A ValueError if the tendon has no sheet
-    (`FootprintSheet`). The footprint commands' loop over poses (the report, the taut band's grid check, the band
-    tables and their verify)."""
+    level; rest="pose" only), its arms in "fem_m_at" (P, L, 3), NaN where neither converges. A ValueError if the
+    tendon has no sheet (`FootprintSheet`). The footprint commands' loop over poses (the report, the taut band's grid
+    check, the band tables and their verify)."""
     sheet = FootprintSheet(tendon, resolution, width_m, pose=pose, surface=surface, rest=rest)
     poses = np.atleast_2d(np.asarray(poses_deg, float))
     out = {"fem_m": np.full((len(poses), 3), np.nan), "mjcf_m": np.zeros((len(poses), 3)),
