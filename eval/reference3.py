@@ -51,7 +51,7 @@ class ReferenceController3:
         alpha = self.kv * (dtarget - dq) + self.kp * (target - np.radians(q_deg))
         tau = S.T @ full @ S @ alpha + S.T @ d.qfrc_bias
         ids = [m.actuator(t).id for t in self.law.actuators]
-        L, r = self.law.geometry(pose, q_deg)
+        L, r = self.law.geometry(pose, q_deg, act)  # the arms at the present activations (band level tables)
         lo = np.clip(act - protocol.ACTION_LIMIT, 0.0, 1.0)
         hi = np.clip(act + protocol.ACTION_LIMIT, 0.0, 1.0)
         return self.statics.distribute(L[0], r[0], d.actuator_velocity[ids], tau, act, lo, hi)

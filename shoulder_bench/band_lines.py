@@ -11,8 +11,15 @@ band's line of action. The tendons without a table (ssc, the deltoids, ld, pec2/
 Why a passive-force callback: a MuJoCo actuator acts along its transmission only (here the MJCF tendon), and no
 transmission has a pose-dependent direction of its own; `mjcb_passive` is MuJoCo's hook for generalised forces added
 at each evaluation, called after the tendon lengths and velocities are known and before the accelerations, at every
-RK4 stage. `shoulder_bench.native.passive` is the compiled (GIL-free) callback, `model._passive` the Python one; both
-read F from the same law arithmetic as the actuator callbacks and c from `band_point` below.
+RK4 stage. `shoulder_bench.native.passive` is the compiled (GIL-free) callback, the only one (a Python passive
+callback would make every model compile fail: `model.install_callbacks`); it reads F from the same law arithmetic as
+the actuator callbacks and c from `band_point` below, as `BandLines.correction` does.
+
+Below a = 1 the band's line moves (docs/fem.md "The activation"); for the tendons with a level table
+(`<tendon>_band_levels.npz`, `fem.band_levels`) the correction is c_t(q) + (r_band(q, a) - r_band(q, 1)), the second
+term tabled on the tasks' grid at a few activation levels and read trilinearly in the pose and linearly in a (below
+the lowest level: that level's; a = the actuator's ctrl, at which its force is computed). The other tendons'
+correction does not depend on a.
 
 Table format (`models/muscles_full/<tendon>_band.npz`, written by `shoulder-bench fem build --bands`):
   plane_deg (P,), elevation_deg (E,), rotation_deg (R,)   the grid, uniform and ascending (the tasks' pose grid or
@@ -20,6 +27,9 @@ Table format (`models/muscles_full/<tendon>_band.npz`, written by `shoulder-benc
   moment_arm_m (P, E, R, 3)                                the band's moment arms about plane, elevation, rotation
   mjcf_moment_arm_m (P, E, R, 3)                           the MJCF tendon's at the same poses
   meta                                                     0-d JSON string (tendon, input_hash, ...)
+Level table (`<tendon>_band_levels.npz`): the same axes (the tasks' grid), activation (L,) descending from 1.0 in
+equal steps, moment_arm_m (L, P, E, R, 3) the band's arms at each level, meta (band_table_hash: the input hash of the
+band table it goes with).
 """
 from __future__ import annotations
 
@@ -44,7 +54,30 @@ def table_path(tendon: str, folder: Path | None = None) -> Path:
     return Path(folder or TABLE_FOLDER) / f"{tendon}_band.npz"
 
 
-def read_table(path: Path) -> tuple[dict, dict]:
+def levels_path(tendon: str, folder: Path | None = None) -> Path:
+    return table_path(tendon, folder).with_name(f"{tendon}_band_levels.npz")
+
+
+def read_levels(path: Path, band_meta: dict) -> tuple[dict, dict]:
+    """(arrays, meta) of a level table made for the band table whose meta is `band_meta`; ValueError naming the file
+    and the command that rebuilds it."""
+    arrays, meta = read_table(path, LEVEL_ARRAYS)
+    levels, shape = arrays["activation"], tuple(len(arrays[k]) for k in AXES)
+    step = np.diff(levels)
+    if not (len(levels) >= 2 and levels[0] == 1.0 and levels[-1] > 0 and np.allclose(step, step[0]) and step[0] < 0
+            and arrays["moment_arm_m"].shape == (len(levels), *shape, 3)):
+        raise ValueError(f"{path}: not a level table (activation {levels.tolist()}, arms "
+                         f"{arrays['moment_arm_m'].shape}); rebuild it with `{REBUILD}`")
+    if meta.get("band_table_hash") != band_meta.get("input_hash"):
+        raise ValueError(f"{path}: made for another band table than {table_path(meta.get('tendon', '?'), path.parent)}"
+                         f"; rebuild both with `{REBUILD}`")
+    return arrays, meta
+
+
+LEVEL_ARRAYS = ("activation", "moment_arm_m")
+
+
+def read_table(path: Path, arrays_named=("moment_arm_m", "mjcf_moment_arm_m")) -> tuple[dict, dict]:
     """(arrays, meta) of a band table; ValueError naming the file and the command that rebuilds it."""
     path = Path(path)
     try:
@@ -53,16 +86,18 @@ def read_table(path: Path) -> tuple[dict, dict]:
         meta = json.loads(str(arrays.pop("meta")))
     except (OSError, ValueError, KeyError) as exc:
         raise ValueError(f"{path}: not a band table ({exc}); rebuild it with `{REBUILD}`") from exc
-    problems = [k for k in (*AXES, "moment_arm_m", "mjcf_moment_arm_m") if k not in arrays]
+    problems = [k for k in (*AXES, *arrays_named) if k not in arrays]
     if not problems:
         shape = tuple(len(arrays[k]) for k in AXES) + (3,)
-        if arrays["moment_arm_m"].shape != shape or arrays["mjcf_moment_arm_m"].shape != shape:
+        if "mjcf_moment_arm_m" in arrays_named and (arrays["moment_arm_m"].shape != shape
+                                                   or arrays["mjcf_moment_arm_m"].shape != shape):
             problems.append(f"arm arrays are not {shape}")
         for k in AXES:
             step = np.diff(arrays[k])
             if len(arrays[k]) < 2 or not np.allclose(step, step[0]) or step[0] <= 0:
                 problems.append(f"{k} is not uniform and ascending")
-        if not np.all(np.isfinite(arrays["moment_arm_m"] - arrays["mjcf_moment_arm_m"])):
+        if not np.all(np.isfinite(arrays["moment_arm_m"])) or not np.all(np.isfinite(arrays.get("mjcf_moment_arm_m",
+                                                                                              0.0))):
             problems.append("non-finite arms")
     if problems:
         raise ValueError(f"{path}: not a band table ({'; '.join(problems)}); rebuild it with `{REBUILD}`")
@@ -70,46 +105,72 @@ def read_table(path: Path) -> tuple[dict, dict]:
 
 
 class BandLines:
-    """The band corrections of `tendons` on one grid: `correction(poses_deg)` (P, n, 3) m. `load` reads the tables."""
+    """The band corrections of `tendons` on one grid and at activation `levels` (ascending, equal steps, ending at 1;
+    (1.0,) when none depends on it): `correction(poses_deg, activation)` (P, n, 3) m. `load` reads the tables."""
 
-    def __init__(self, tendons, axes_deg, correction: np.ndarray):
+    def __init__(self, tendons, axes_deg, correction: np.ndarray, levels=(1.0,)):
         self.tendons = tuple(tendons)
         self.axes_deg = [np.asarray(a, dtype=float) for a in axes_deg]
-        shape = tuple(len(a) for a in self.axes_deg)
-        self.table = np.ascontiguousarray(correction, dtype=np.float64)  # (n, P, E, R, 3)
+        self.levels = np.asarray(levels, dtype=float)
+        shape = (len(self.levels),) + tuple(len(a) for a in self.axes_deg)
+        self.table = np.ascontiguousarray(correction, dtype=np.float64)  # (n, L, P, E, R, 3)
         if self.table.shape != (len(self.tendons), *shape, 3):
             raise ValueError(f"band corrections of shape {self.table.shape}, expected {(len(self.tendons), *shape, 3)}")
-        # per coordinate: the grid's first pose (rad) and 1 / step (1/rad), as `law_cell` reads them
+        # per coordinate: the grid's first pose (rad) and 1 / step (1/rad), as `law_cell` reads them; then the same
+        # for the activation levels
+        da = self.levels[1] - self.levels[0] if len(self.levels) > 1 else 1.0
         self.grid = np.concatenate([[np.radians(a[0]) for a in self.axes_deg],
-                                    [1.0 / np.radians(a[1] - a[0]) for a in self.axes_deg]])
-        self.shape = np.array(shape, dtype=np.int64)
+                                    [1.0 / np.radians(a[1] - a[0]) for a in self.axes_deg],
+                                    [self.levels[0], 1.0 / da]])
+        self.shape = np.array(shape[1:] + shape[:1], dtype=np.int64)  # planes, elevations, rotations, levels
 
     @classmethod
     def load(cls, tendons=BAND_TENDONS, folder: Path | None = None) -> BandLines:
         """The tables `<folder>/<tendon>_band.npz` (default models/muscles_full), read on the coarsest grid that
         nests all of theirs (per coordinate the same range, its number of steps the least common multiple of theirs):
         each resampled there linearly along each coordinate in turn, which leaves its trilinear reading exactly as it
-        was (a trilinear function restricted to a sub-cell is trilinear). Tables over different ranges are refused."""
+        was (a trilinear function restricted to a sub-cell is trilinear). Tables over different ranges are refused.
+        With the level tables beside them (`levels_path`; all at the same levels): each level's correction is the
+        band table's plus that level's arms less its a = 1 arms, read the same way."""
         tendons = tuple(tendons)
         unknown = [t for t in tendons if t not in BAND_TENDONS]
         if unknown:
             raise ValueError(f"no band table for {unknown}; tendons with one: {', '.join(BAND_TENDONS)}")
-        tables = [read_table(table_path(t, folder))[0] for t in tendons]
-        axes = [np.linspace(tables[0][k][0], tables[0][k][-1], math.lcm(*(len(a[k]) - 1 for a in tables)) + 1)
+        tables = [read_table(table_path(t, folder)) for t in tendons]
+        levels = {t: read_levels(levels_path(t, folder), meta)[0] for t, (_, meta) in zip(tendons, tables)
+                  if levels_path(t, folder).exists()}
+        found = {tuple(a["activation"].tolist()) for a in levels.values()}
+        if len(found) > 1:
+            raise ValueError(f"level tables at different activation levels ({sorted(found)}); rebuild them with "
+                             f"`{REBUILD}`")
+        descending = np.array(found.pop() if found else (1.0,))
+        grids = [a for a, _ in tables] + list(levels.values())
+        axes = [np.linspace(grids[0][k][0], grids[0][k][-1], math.lcm(*(len(a[k]) - 1 for a in grids)) + 1)
                 for k in AXES]
-        for t, a in zip(tendons, tables):
+        for t, a in [(t, a) for t, (a, _) in zip(tendons, tables)] + list(levels.items()):
             if not all(_nests(ax, a[k]) for k, ax in zip(AXES, axes)):
                 raise ValueError(f"{table_path(t, folder)}: its pose grid spans other ranges than "
                                  f"{', '.join(tendons)}'s; rebuild the tables with `{REBUILD}`")
-        return cls(tendons, axes, np.stack([_resample(a["moment_arm_m"] - a["mjcf_moment_arm_m"], [a[k] for k in AXES],
-                                                      axes) for a in tables]))
+        out = []
+        for t, (a, _) in zip(tendons, tables):
+            c = _resample(a["moment_arm_m"] - a["mjcf_moment_arm_m"], [a[k] for k in AXES], axes)
+            at = [np.zeros_like(c)] * len(descending)  # each level's arms less the a = 1 arms
+            if t in levels:
+                lv = levels[t]
+                at = [_resample(arms - lv["moment_arm_m"][0], [lv[k] for k in AXES], axes)
+                      for arms in lv["moment_arm_m"]]
+            out.append(np.stack([c + d for d in at[::-1]]))  # ascending in activation
+        return cls(tendons, axes, np.stack(out), descending[::-1])
 
-    def correction(self, poses_deg) -> np.ndarray:
-        """(P, n, 3) m: each tendon's band moment arms less its MJCF ones at `poses_deg` (P, 3), trilinear between the
-        grid's poses (beyond the grid: its edges), as the callbacks read them."""
+    def correction(self, poses_deg, activation=1.0) -> np.ndarray:
+        """(P, n, 3) m: each tendon's band moment arms less its MJCF ones at `poses_deg` (P, 3) and `activation` (a
+        number, or per pose and tendon (P, n); clipped to [0, 1]), trilinear between the grid's poses (beyond the
+        grid: its edges) and linear between the levels (below the lowest: its values), as the callbacks read them."""
         q = np.radians(np.atleast_2d(np.asarray(poses_deg, dtype=float)))
+        a = np.ascontiguousarray(np.broadcast_to(np.clip(activation, 0.0, 1.0), (len(q), len(self.tendons))),
+                                 dtype=np.float64)
         out = np.empty((len(q), len(self.tendons), 3))
-        _corrections(self.table, self.grid, self.shape, q, out)
+        _corrections(self.table, self.grid, self.shape, q, a, out)
         return out
 
 
@@ -136,24 +197,39 @@ def band_cells(q0, q1, q2, grid, shape):
 
 
 @numba.njit(inline="always")
-def band_point(table, b, k, i0, w0, i1, w1, i2, w2):
-    """Tendon b's correction about coordinate k at a cell (`band_cells`): trilinear in the cell's 8 corners. The one
-    implementation: `BandLines.correction` and the compiled passive callback both inline it."""
+def band_level(a, grid, shape):
+    """The activation's level cell and weight (a in [0, 1]; one level: that one). At the top level the weight is 1
+    exactly, so that a = 1 reads the band table's correction as it is."""
+    if shape[3] == 1:
+        return 0, 0.0
+    x = min(max((a - grid[6]) * grid[7], 0.0), shape[3] - 1.0)
+    j = min(int(x), shape[3] - 2)
+    return j, x - j
+
+
+@numba.njit(inline="always")
+def band_point(table, b, k, j, wj, i0, w0, i1, w1, i2, w2):
+    """Tendon b's correction about coordinate k at a cell (`band_cells`) and level cell (`band_level`): trilinear in
+    the cell's 8 corners, linear between the two levels. The one implementation: `BandLines.correction` and the
+    compiled passive callback both inline it."""
     out = 0.0
-    for d0 in range(2):
-        u0 = w0 if d0 else 1.0 - w0
-        for d1 in range(2):
-            u1 = w1 if d1 else 1.0 - w1
-            for d2 in range(2):
-                u2 = w2 if d2 else 1.0 - w2
-                out += u0 * u1 * u2 * table[b, i0 + d0, i1 + d1, i2 + d2, k]
+    for dj in range(2 if wj != 0.0 else 1):
+        uj = wj if dj else 1.0 - wj
+        for d0 in range(2):
+            u0 = w0 if d0 else 1.0 - w0
+            for d1 in range(2):
+                u1 = w1 if d1 else 1.0 - w1
+                for d2 in range(2):
+                    u2 = w2 if d2 else 1.0 - w2
+                    out += uj * u0 * u1 * u2 * table[b, j + dj, i0 + d0, i1 + d1, i2 + d2, k]
     return out
 
 
 @numba.njit(cache=True, nogil=True)
-def _corrections(table, grid, shape, q, out):
+def _corrections(table, grid, shape, q, a, out):
     for p in range(q.shape[0]):
         i0, w0, i1, w1, i2, w2 = band_cells(q[p, 0], q[p, 1], q[p, 2], grid, shape)
         for b in range(table.shape[0]):
+            j, wj = band_level(a[p, b], grid, shape)
             for k in range(3):
-                out[p, b, k] = band_point(table, b, k, i0, w0, i1, w1, i2, w2)
+                out[p, b, k] = band_point(table, b, k, j, wj, i0, w0, i1, w1, i2, w2)

@@ -25,7 +25,8 @@ What a call reads:
 
 `passive(m, d)` is the third callback, `mjcb_passive`: for a law attached with band corrections (`band_lines`, the
 3-DOF tasks' line_of_action="band") it adds each band tendon's F c(q) to qfrc_passive on the three glenohumeral
-coordinates, F from `_evaluate` (the actuator's force) and c from `band_lines.band_point`. It also reads mjModel.nu
+coordinates, F from `_evaluate` (the actuator's force) and c from `band_lines.band_point` (at the actuator's ctrl,
+where the tendon has a level table). It also reads mjModel.nu
 and mjData.qfrc_passive, and the law's row points (word BAND) to a band block: the band tendons' actuators, the
 grid, the table, the coordinates' addresses and the nu of the model it was attached to (another nu: nothing added).
 
@@ -50,7 +51,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-from shoulder_bench.band_lines import band_cells, band_point
+from shoulder_bench.band_lines import band_cells, band_level, band_point
 from shoulder_bench.muscle import law_cell, law_point
 
 SYMBOL = "shoulder_bench_native_root"
@@ -192,9 +193,9 @@ def passive(m, d):
         return
     nb = block[NB]
     acts = numba.carray(_i64p(block[ACTS]), nb)
-    grid = numba.carray(_f64p(block[BGRID]), 6)
-    shape = numba.carray(_i64p(block[BSHAPE]), 3)
-    corrections = numba.carray(_f64p(block[BTABLE]), (nb, shape[0], shape[1], shape[2], 3))
+    grid = numba.carray(_f64p(block[BGRID]), 8)
+    shape = numba.carray(_i64p(block[BSHAPE]), 4)
+    corrections = numba.carray(_f64p(block[BTABLE]), (nb, shape[3], shape[0], shape[1], shape[2], 3))
     qadr = numba.carray(_i64p(block[BQADR]), 3)
     dadr = numba.carray(_i64p(block[BDADR]), 3)
     qpos = numba.carray(_f64p(_word(dp + root[D_QPOS])), max(qadr[0], qadr[1], qadr[2]) + 1)
@@ -205,9 +206,11 @@ def passive(m, d):
     for b in range(nb):
         i = acts[b]
         g, f0 = _evaluate(m, d, i)
-        tension = -(g * min(max(ctrl[i], 0.0), 1.0) + f0) * gear[6 * i]
+        a = min(max(ctrl[i], 0.0), 1.0)
+        tension = -(g * a + f0) * gear[6 * i]
+        j, wj = band_level(a, grid, shape)
         for k in range(3):
-            qfrc[dadr[k]] += tension * band_point(corrections, b, k, i0, w0, i1, w1, i2, w2)
+            qfrc[dadr[k]] += tension * band_point(corrections, b, k, j, wj, i0, w0, i1, w1, i2, w2)
 
 
 # --- the registry ----------------------------------------------------------------------------------------------------
@@ -246,7 +249,8 @@ def _band_block(lines, bands) -> tuple[np.ndarray, tuple]:
     acts, qadr, dadr = (np.ascontiguousarray(x, dtype=np.int64) for x in bands[:3])
     arrays = (acts, np.ascontiguousarray(lines.grid, dtype=np.float64), np.ascontiguousarray(lines.shape),
               lines.table, qadr, dadr)
-    if acts.shape != (len(lines.tendons),) or qadr.shape != (3,) or dadr.shape != (3,):
+    if acts.shape != (len(lines.tendons),) or qadr.shape != (3,) or dadr.shape != (3,) or lines.grid.shape != (8,) \
+            or lines.shape.shape != (4,):
         raise ValueError("inconsistent band arrays for the native callback")
     block = np.zeros(8, dtype=np.int64)
     block[NB], block[BNU] = len(acts), bands[3]

@@ -17,6 +17,7 @@ from shoulder_bench import full_arm
 
 FEASIBLE_NM = 1e-3  # a residual above this (N m, any coordinate) means the pose cannot be held
 TORQUE_WEIGHT = 1e3  # `distribute`: (N m)^-2 weight of the torque residual against the sum of a^2
+LEVEL_PASSES = 1  # `solve`: passes after the first where the arms depend on the activation (band level tables)
 
 
 class Statics:
@@ -51,9 +52,16 @@ class Statics:
 
     def solve(self, pose_deg, torque: np.ndarray, start: np.ndarray | None = None) -> tuple[np.ndarray, float]:
         """(activations (muscles,), largest |residual| N m) of least effort that produce `torque` (3,) at rest at
-        `pose_deg`."""
-        L, r = self.law.geometry(self.pose, np.asarray(pose_deg, dtype=float))
-        L, r = L[0], r[0]
+        `pose_deg`. Where a band's line depends on the activation (`band_lines`' level tables), solved again
+        LEVEL_PASSES times with the arms at the activations found before (the first pass: at a = 1)."""
+        lines = getattr(self.law, "lines", None)
+        a = None
+        for _ in range(1 + (LEVEL_PASSES if lines is not None and len(lines.levels) > 1 else 0)):
+            L, r = self.law.geometry(self.pose, np.asarray(pose_deg, dtype=float), a)
+            a, residual = self._solve_at(L[0], r[0], torque, start if a is None else a)
+        return a, residual
+
+    def _solve_at(self, L: np.ndarray, r: np.ndarray, torque: np.ndarray, start) -> tuple[np.ndarray, float]:
         n = len(self.law.muscles)
         x0 = np.full(n, 0.05) if start is None else np.clip(start, 0.0, 1.0)
         cons = {"type": "eq", "fun": lambda a: self.torque_and_jacobian(L, r, a)[0] - torque,

@@ -59,12 +59,12 @@ def test_mujoco_applies_the_band_line_of_action_with_either_callback():
     band = S.T @ (d.qfrc_passive - d_mjcf.qfrc_passive)
     assert np.abs(band).max() > 0.05  # N m: the corrections matter at this pose
     # the whole generalised force is sum_t F_t (r_MJCF + c_t), the bands' arms for their tendons
-    L, r = law.geometry(pose, POSE)
+    L, r = law.geometry(pose, POSE, np.full(len(law.muscles), 0.4))  # the arms at a = 0.4 (tma's level table)
     f = law.force(L, np.zeros_like(L), np.full((1, len(law.muscles)), 0.4))[0]
     own = d.qfrc_passive - d.qfrc_spring - d.qfrc_damper - d.qfrc_gravcomp - d.qfrc_fluid
     np.testing.assert_allclose(S.T @ (d.qfrc_actuator + own), f @ r[0], rtol=1e-9)
     cols = [law.actuators.index(t) for t in BAND_TENDONS]
-    np.testing.assert_allclose(band, f[cols] @ law.lines.correction(POSE)[0], rtol=1e-9)
+    np.testing.assert_allclose(band, f[cols] @ law.lines.correction(POSE, 0.4)[0], rtol=1e-9)
 
 
 def test_the_applied_check_passes_with_the_bands_and_fails_without():

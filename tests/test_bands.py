@@ -123,7 +123,7 @@ def test_an_unsolved_grid_pose_takes_its_solved_neighbours_correction(cell, monk
     field = np.arange(2 * 3 * 2 * 3, dtype=float).reshape(2, 3, 2, 3)
     unsolved = np.zeros((2, 3, 2), bool)
     unsolved[1, 1, 0] = True
-    got = bands._neighbours_mean(field, unsolved)
+    got = bands.neighbours_mean(field, unsolved)
     np.testing.assert_array_equal(got[1, 1, 0], np.mean([field[0, 1, 0], field[1, 0, 0], field[1, 2, 0],
                                                          field[1, 1, 1]], axis=0))
     np.testing.assert_array_equal(got[~unsolved], field[~unsolved])
@@ -217,7 +217,7 @@ def test_refined_grids_nest_the_tasks_grid_and_read_as_their_own_tables(tmp_path
                  moment_arm_m=rng.normal(0, 1e-3, shape), mjcf_moment_arm_m=np.zeros(shape),
                  meta=np.array(json.dumps(dict(meta, tendon=t))))
     lines = BandLines.load(("tmi", "ssp", "tma"), tmp_path)
-    assert lines.table.shape[1:4] == (6 * 6 + 1, 2 * 14 + 1, 6 * 7 + 1)
+    assert lines.table.shape[1:5] == (1, 6 * 6 + 1, 2 * 14 + 1, 6 * 7 + 1)  # one activation level: no level tables
     q = np.column_stack([rng.uniform(0, 90, 50), rng.uniform(0, 140, 50), rng.uniform(-45, 60, 50)])
     got = lines.correction(q)
     for b, t in enumerate(("tmi", "ssp", "tma")):

@@ -66,15 +66,16 @@ def _build_full(args) -> int:
 
 
 def _build_bands(args) -> int:
-    from shoulder_bench.authoring.fem import bands
+    from shoulder_bench.authoring.fem import band_levels, bands
 
     if args.muscle or args.full:
         raise SystemExit("shoulder-bench fem build: error: --bands builds the footprint sheets' line-of-action tables "
                          f"of {', '.join(bands.FOOTPRINT_TENDONS)}: give --tendon, not --muscle or --full")
     t0 = time.perf_counter()
     try:
-        metas = bands.build(tuple(args.tendon) if args.tendon else bands.FOOTPRINT_TENDONS, coarse=args.coarse,
-                            out=args.out, jobs=args.jobs)
+        tendons = tuple(args.tendon) if args.tendon else bands.FOOTPRINT_TENDONS
+        metas = bands.build(tendons, coarse=args.coarse, out=args.out, jobs=args.jobs)
+        levels = band_levels.build(tendons, coarse=args.coarse, out=args.out, jobs=args.jobs)
     except (ValueError, RuntimeError) as exc:
         raise SystemExit(f"shoulder-bench fem build: error: {exc}") from None
     for t, m in metas.items():
@@ -86,6 +87,12 @@ def _build_bands(args) -> int:
         big = ", ".join(f"{k} {v:.1f}" for k, v in m["largest_correction_mm"].items())
         print(f"{t}: {m['resolution']} band, {how} ({m['build_seconds']:.1f} s to solve; largest correction to the "
               f"MJCF arms, mm: {big}; tension {m['tension_range_N'][0]:.0f}-{m['tension_range_N'][1]:.0f} N)")
+    for t, m in levels.items():
+        how = "up to date, nothing to do" if m["cached"] else "solved"
+        moves = ", ".join(f"a = {a:g} " + " / ".join(f"{x:.2f}" for x in d)
+                          for a, d in zip(m["levels"][1:], m["largest_move_mm"]))
+        print(f"{t}: its band below a = 1 on the tasks' grid, {how} ({m['build_seconds']:.1f} s to solve; largest "
+              f"move of its arms from a = 1, plane / elevation / rotation, mm: {moves})")
     print(f"total {time.perf_counter() - t0:.1f} s")
     return 0
 

@@ -17,6 +17,7 @@ from shoulder_bench.authoring.fem.bands import (
     solve_poses,
     table_path,
 )
+from shoulder_bench.band_lines import BandLines, levels_path
 
 
 def verify(folder: Path | None = None, tendons=None, resolution: str | None = None, poses=None,
@@ -34,8 +35,9 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
        (`solve_poses`, in `jobs` processes). resolution: the sheets' (default: the table's own). interpolation: the
        tables' (`BandTable`). activations (levels in (0, 1]): the same check at each, with the band continued on the
        same branch from its a = 1 equilibrium down to it (`footprint_compare.continued`): the error
-       F(L_MT(q), a) |r_MJCF(q) + c(q) - r_band(q, a)|, in % of the same peak (the tables hold one line per pose, the
-       band's at a = 1); a pose where the continuation finds no equilibrium counts as unsolved.
+       F(L_MT(q), a) |r_MJCF(q) + c(q, a) - r_band(q, a)|, in % of the same peak, c(q, a) the band table's c(q)
+       plus the level table's move from a = 1 where the tendon has one (`band_levels`), else c(q); a pose where the
+       continuation finds no equilibrium counts as unsolved.
     2. What MuJoCo applies with the tables (the task option line_of_action="band", `band_lines`): each tendon alone,
        at every grid pose and activation level, against F(L(q), a) r_band(q) (`verify_full.applied_vs_fem`); bound
        `verify_full.APPLIED_TOL`."""
@@ -80,8 +82,13 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
         with tqdm(total=len(held), desc=f"verify {t}", unit="pose", disable=quiet, leave=False) as bar:
             band = solve_poses(t, held, resolution or table.meta["resolution"], bar.update, pose, jobs, below)
         line = band["mjcf_m"] + table.correction(held)
+        lines = BandLines.load((t,), folder) if below and levels_path(t, folder).exists() else None
+        if lines is not None:
+            print(f"{t:<5} below a = 1 with its level table ({levels_path(t, folder).name})")
         for a, arms in zip((1.0,) + below, [band["fem_m"]] + list(band["fem_m_at"].transpose(1, 0, 2))):
-            if not check(t, a, held, tendon_force(law, pose, t, held, a)[:, None] * np.abs(line - arms) / peak * 100):
+            moved = 0.0 if lines is None else (lines.correction(held, a) - lines.correction(held, 1.0))[:, 0]
+            if not check(t, a, held, tendon_force(law, pose, t, held, a)[:, None] * np.abs(line + moved - arms) / peak
+                         * 100):
                 failed.append(t if a == 1.0 else f"{t} at a = {a:g}")
     if checked:
         print("all band tables within the bound" if not failed else f"over the bound or unsolved: {', '.join(failed)}")

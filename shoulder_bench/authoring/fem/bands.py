@@ -178,7 +178,7 @@ def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_
                            f"{[tuple(p) for p in poses[unsolved][:3].tolist()]} deg; the tables already written are "
                            "kept")
     arm, mjcf, unsolved = arm.reshape(*shape, 3), mjcf.reshape(*shape, 3), unsolved.reshape(shape)
-    arm[unsolved] = mjcf[unsolved] + _neighbours_mean(arm - mjcf, unsolved)[unsolved]
+    arm[unsolved] = mjcf[unsolved] + neighbours_mean(arm - mjcf, unsolved)[unsolved]
     return {"moment_arm_m": arm, "mjcf_moment_arm_m": mjcf, "tension_N": tension.reshape(shape),
             "contact_N": contact.reshape(shape), "unsolved": unsolved, "f0_N": r["f0_N"],
             "reused": r.get("reused", 0)}
@@ -334,7 +334,7 @@ def least_energy(tendon: str, poses: np.ndarray, resolution: str, progress=None,
                    surface=surface(tendon), offsets_deg=probe_offsets()[:starts], activations=activations)
 
 
-def _neighbours_mean(field: np.ndarray, unsolved: np.ndarray) -> np.ndarray:
+def neighbours_mean(field: np.ndarray, unsolved: np.ndarray) -> np.ndarray:
     """`field` (grid shape + (3,)) where each unsolved grid pose takes the mean of its solved neighbours' values (one
     step along each coordinate)."""
     out = field.copy()

@@ -98,7 +98,8 @@ def applied_vs_fem(folder: Path | None = None, line_of_action: str = "mjcf", mus
     """Section 2: each muscle alone (`muscles`, default all), MuJoCo's applied generalised force against the FEM's at
     every grid pose and level. line_of_action "band": the band tendons (`band_lines.BAND_TENDONS`), each acting along
     its band (`fem verify --bands`; the band tables from `folder`, the force tables from models/muscles_full, as
-    the held-out check takes them), against F(L(q), a) times the band's own moment arms at its table's grid poses."""
+    the held-out check takes them), against F(L(q), a) times the band's own moment arms at its table's grid poses
+    (below a = 1 plus its level table's move from them, where it has one)."""
     from shoulder_bench.band_lines import AXES, BAND_TENDONS, BandLines, read_table, table_path
     from shoulder_bench.tendon_law import TendonLaw
 
@@ -112,7 +113,9 @@ def applied_vs_fem(folder: Path | None = None, line_of_action: str = "mjcf", mus
         law.lines = BandLines.load((t,), folder)
         arrays = read_table(table_path(t, folder))[0]
         poses = np.stack(np.meshgrid(*(arrays[k] for k in AXES), indexing="ij"), axis=-1).reshape(-1, 3)
-        checks += applied_checks(law, t, poses, arrays["moment_arm_m"].reshape(-1, 1, 3))
+        arms, lines = arrays["moment_arm_m"].reshape(-1, 1, 3), law.lines  # below a = 1: its level table's move
+        checks += applied_checks(law, t, poses, lambda a, r=arms, c=lines, q=poses: r + c.correction(q, a)
+                                 - c.correction(q, 1.0))
     return checks
 
 
@@ -120,8 +123,8 @@ def applied_checks(law, muscle: str, poses: np.ndarray, arms: np.ndarray | None 
                    geometry: str | None = None) -> list[Check]:
     """`law` (one muscle's) attached to the full shoulder (the model of `geometry`, default intact): S^T
     (qfrc_actuator + the passive callback's band forces) at `poses` (P, 3) deg and every level against F(L(q), a)
-    times `arms` (P, tendons, 3), default the MJCF tendons' arms; bound APPLIED_TOL of the muscle's peak |torque| in
-    each coordinate."""
+    times `arms` (P, tendons, 3) or `arms(a)`, default the MJCF tendons' arms; bound APPLIED_TOL of the muscle's
+    peak |torque| in each coordinate."""
     from shoulder_bench.model import attach_law, install_callbacks
 
     m = full_arm.compile_full(geometry)
@@ -136,7 +139,7 @@ def applied_checks(law, muscle: str, poses: np.ndarray, arms: np.ndarray | None 
     applied, table = np.zeros((len(poses), len(levels), 3)), np.zeros((len(poses), len(levels), 3))
     for j, a in enumerate(levels):
         f = law.force(L, np.zeros_like(L), np.full((len(poses), 1), a))  # (P, n)
-        table[:, j] = np.einsum("pn,pnk->pk", f, r)
+        table[:, j] = np.einsum("pn,pnk->pk", f, r(a) if callable(r) else r)
         d.ctrl[:] = 0.0
         d.ctrl[ids] = a
         for p in range(len(poses)):
