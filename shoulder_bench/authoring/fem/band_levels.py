@@ -68,11 +68,11 @@ def build(tendons=LEVEL_TENDONS, coarse: bool = False, out: Path | None = None, 
                 result[t] = dict(meta, cached=True)
                 continue
             t0, poses, partial = time.perf_counter(), bands.grid_poses(), partial_path(t, folder)
-            known = _resumed(partial, digest)
+            known = bands.resumed(partial, digest, SOLVED)
             with tqdm(total=len(poses), initial=0 if known is None else len(known["fem_m"]), unit="pose",
                       desc=f"fem band levels {t}", disable=quiet) as bar:
                 solved = _solve(t, poses, resolution, bar.update, int(jobs), known,
-                                lambda k, p=partial, d=digest: _save(p, d, k))
+                                lambda k, p=partial, d=digest: bands.save_partial(p, d, k, SOLVED))
             meta = _write(folder, t, solved, digest, band_meta, resolution, time.perf_counter() - t0,
                           0 if known is None else len(known["fem_m"]))
             partial.unlink(missing_ok=True)
@@ -90,19 +90,6 @@ def _solve(tendon: str, poses: np.ndarray, resolution: str, progress, jobs: int,
         parts.append({k: s[k] for k in SOLVED})
         save({k: np.concatenate([p[k] for p in parts]) for k in SOLVED})
     return {k: np.concatenate([p[k] for p in parts]) for k in SOLVED}
-
-
-def _resumed(path: Path, digest: str) -> dict | None:
-    try:
-        with np.load(path) as z:
-            return {k: z[k] for k in SOLVED} if str(z["input_hash"]) == digest else None
-    except (OSError, ValueError, KeyError):
-        return None
-
-
-def _save(path: Path, digest: str, known: dict) -> None:
-    with replacing(path) as tmp:
-        np.savez(tmp, input_hash=np.array(digest), **known)
 
 
 def _write(folder: Path, tendon: str, solved: dict, digest: str, band_meta: dict, resolution: str, seconds: float,

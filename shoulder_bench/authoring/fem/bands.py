@@ -213,19 +213,19 @@ def partial_path(tendon: str, folder: Path) -> Path:
     return folder / f"{tendon}_band.partial.npz"
 
 
-def resumed(path: Path, digest: str) -> dict | None:
-    """The poses an interrupted build saved at `path` (`partial_path`) as a `known` dict, if that build had the inputs
-    whose hash is `digest`; else None (missing, unreadable or from other inputs: solved anew)."""
+def resumed(path: Path, digest: str, keys=PARTIAL) -> dict | None:
+    """The poses an interrupted build saved at `path` (`partial_path`) as a `known` dict (its `keys`), if that build had
+    the inputs whose hash is `digest`; else None (missing, unreadable or from other inputs: solved anew)."""
     try:
         with np.load(path) as z:
-            return {k: z[k] for k in PARTIAL} if str(z["input_hash"]) == digest else None
+            return {k: z[k] for k in keys} if str(z["input_hash"]) == digest else None
     except (OSError, ValueError, KeyError):
         return None
 
 
-def _save_partial(path: Path, digest: str, known: dict) -> None:
+def save_partial(path: Path, digest: str, known: dict, keys=PARTIAL) -> None:
     with replacing(path) as tmp:
-        np.savez(tmp, input_hash=np.array(digest), **{k: known[k] for k in PARTIAL})
+        np.savez(tmp, input_hash=np.array(digest), **{k: known[k] for k in keys})
 
 
 def merged(*knowns: dict | None) -> dict | None:
@@ -381,7 +381,7 @@ def _build(folder: Path, tendons: tuple, resolution: str, jobs: int, quiet: bool
         for t, digest, done, known in todo:
             t0, partial = time.perf_counter(), partial_path(t, folder)
             grid = solve_grid(t, resolution, bar.update, jobs=jobs, known=known,
-                              save=lambda new, p=partial, d=digest, done=done: _save_partial(p, d, merged(done, new)))
+                              save=lambda new, p=partial, d=digest, done=done: save_partial(p, d, merged(done, new)))
             resumed_poses = 0 if done is None else len(done["poses"])
             meta = _meta(t, resolution, digest, dict(grid, reused=grid["reused"] - resumed_poses),
                          time.perf_counter() - t0, resumed_poses)
