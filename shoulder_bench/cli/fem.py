@@ -211,8 +211,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     v.add_argument("--jobs", type=int, default=1, help="with --bands: this many processes re-solve the held-out "
                    "poses")
     v.add_argument("--activation", type=float, action="append", metavar="A",
-                   help="with --bands: also check at this activation level in (0, 1] (repeatable), the band continued "
-                   "on its branch from a = 1 down to it (the tables hold its line at a = 1)")
+                   help="with --bands: also check at this activation level in (0, 1] (repeatable), the band taken "
+                   "down from a = 1 level by level, the least energy of the continued and the ramped equilibrium "
+                   "(the tables hold its line at a = 1, tma's level table below it)")
     v.add_argument("--interpolation", choices=("linear", "cubic"), default="linear",
                    help="with --bands: the tables read trilinearly (the scheme) or by a tricubic spline")
     v.set_defaults(func=_verify)

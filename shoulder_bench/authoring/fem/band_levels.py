@@ -1,9 +1,9 @@
 """The band's line of action below a = 1, tabled (issue 12 §2; docs/fem.md "The activation tabled"): built by
 `shoulder-bench fem build --bands` after the band tables (`bands.py`), for the tendons in LEVEL_TENDONS.
 
-The band tables hold the taut band's line at a = 1. Below it the line moves (continued on the same branch, Newton from
-the level above: `footprint_compare.continued`), by up to 1.4 mm at 30 sampled poses, and for tma that move put 5 of
-100 held-out poses over the 2 % bound at a = 0.5 and 0.25 where a = 1 passes (`fem verify --bands --activation`). So
+The band tables hold the taut band's line at a = 1. Below it the line moves (the band taken down level by level,
+`footprint_compare.continued`), by up to 1.4 mm at 30 sampled poses, and for tma that move put 4 of 100 held-out
+poses over the 2 % bound at a = 0.5 where a = 1 passes (`fem verify --bands --activation`; docs/fem.md). So
 for those tendons a level table holds the band's arms at a = 1 and at LEVELS below, on the tasks' grid (840 poses;
 what is exploited: the move is smooth in the pose, so the tasks' step is enough where the line itself needs a finer
 one, which the verify below a = 1 checks at the table's held-out poses); MuJoCo reads the correction at activation a

@@ -33,11 +33,12 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
        force is largest and the tables hold the band's line; lower levels with `activations`); bound
        `verify_full.HELD_OUT_TOL`. The band solved as the table's was
        (`solve_poses`, in `jobs` processes). resolution: the sheets' (default: the table's own). interpolation: the
-       tables' (`BandTable`). activations (levels in (0, 1]): the same check at each, with the band continued on the
-       same branch from its a = 1 equilibrium down to it (`footprint_compare.continued`): the error
+       tables' (`BandTable`). activations (levels in (0, 1]): the same check at each, with the band taken down from
+       its a = 1 equilibrium level by level (`footprint_compare.continued`: the least energy of the equilibrium
+       continued from the level above and the ramp's): the error
        F(L_MT(q), a) |r_MJCF(q) + c(q, a) - r_band(q, a)|, in % of the same peak, c(q, a) the band table's c(q)
        plus the level table's move from a = 1 where the tendon has one (`band_levels`), else c(q); a pose where the
-       continuation finds no equilibrium counts as unsolved.
+       band finds no equilibrium at a level counts as unsolved.
     2. What MuJoCo applies with the tables (the task option line_of_action="band", `band_lines`): each tendon alone,
        at every grid pose and activation level, against F(L(q), a) r_band(q) (`verify_full.applied_vs_fem`); bound
        `verify_full.APPLIED_TOL`."""

@@ -17,9 +17,9 @@ grid with its step divided, in every coordinate or per coordinate (every pose of
 is). What is exploited: that the band's line of action departs
 smoothly from the MJCF path's (the MJCF arms themselves turn fast near high elevation, 16 % of peak between the
 grid's poses for ssp, and the band's with them: a table of the band's own arms would miss by as much, the
-correction by < 1 %; docs/fem.md). Not exploited here: the activation (the band is solved at a = 1; continued down to
-a = 0.25 its line moves by up to 1.4 mm, isp's on the wrap cylinder 9 mm: `benchmarks/band_activation.py`, docs/fem.md
-"Taut bands").
+correction by < 1 %; docs/fem.md). The activation: the band is solved at a = 1 here; below it its line moves (by
+up to 1.4 mm at sampled poses, `benchmarks/band_activation.py`), which `band_levels` tables for the tendons that need
+it (docs/fem.md "Taut bands").
 
 Tendons: those whose footprint sheet is resolved (FOOTPRINT_TENDONS). ssc is left out: its 40 mm sheet on the parent's
 17 mm wrap sphere has several equilibria, unresolved until its contact surface is the humeral head.
@@ -286,8 +286,8 @@ def solve_poses(tendon: str, poses: np.ndarray, resolution: str, progress=None,
     """The taut band of `tendon` at `poses` (P, 3) deg, as `footprint_compare.compare` returns it (rest="pose"): the
     ramp's equilibrium, or for LEAST_ENERGY tendons `least_energy`'s. `jobs` > 1: that many processes, each solving
     CHUNK poses at a time on a model it poses itself (`pose` unused; each pose's equilibrium is its own, so the result
-    is the same); progress(n) after n poses. activations: also the band continued on the same branch to these levels
-    below 1 (`footprint_compare.compare`'s "fem_m_at")."""
+    is the same); progress(n) after n poses. activations: also the band at these levels below 1, taken down from
+    a = 1 (`footprint_compare.continued`; `compare`'s "fem_m_at")."""
     poses = np.atleast_2d(np.asarray(poses, float))
     if jobs > 1 and len(poses) > CHUNK:
         return _solve_parallel(tendon, poses, resolution, progress, jobs, activations)
