@@ -96,8 +96,12 @@ def branches(tendon: str, at) -> None:
     quarter = np.array([full_arm.POSE_STEP_DEG[c] / 4 for c in full_arm.COORDINATES])
     sheet = FootprintSheet(tendon, table.meta["resolution"], pose=pose, rest="pose",
                            surface=bands.surface(tendon))
-    ramped = sheet.solve(p)
-    found = [("ramp from rest", ramped, sheet.solve_from(p, ramped["nodes"])["energy_J"])]
+    found = []
+    try:
+        ramped = sheet.solve(p)
+        found.append(("ramp from rest", ramped, sheet.solve_from(p, ramped["nodes"])["energy_J"]))
+    except NoConvergence as exc:
+        print(f"{tendon} at {tuple(p.tolist())} deg: the ramp from rest finds no equilibrium ({exc})", flush=True)
     for k, sign in itertools.product(range(3), (-1, 1)):
         q = p.copy()
         q[k] += sign * quarter[k]
@@ -112,6 +116,8 @@ def branches(tendon: str, at) -> None:
     read = mjcf + table.correction(p)[0]
     print(f"{tendon} at {tuple(p.tolist())} deg: equilibria of the sheet built there (moment arms mm; energy J; the "
           "table's error % of peak, plane / elevation / rotation)")
+    if not found:
+        print("  none of the seven starts finds one")
     for label, sol, energy in found:
         err = force * np.abs(read - sol["moment_arm_m"]) / peak * 100
         print(f"  {label:<24} " + " ".join(f"{x:8.3f}" for x in sol["moment_arm_m"] * 1e3)
