@@ -6,8 +6,9 @@ The band tables hold the taut band's line at a = 1. Below it the line moves (the
 poses over the 2 % bound at a = 0.5 where a = 1 passes (`fem verify --bands --activation`; docs/fem.md). So
 for those tendons a level table holds the band's arms at a = 1 and at LEVELS below, on the tasks' grid (840 poses;
 what is exploited: the move is smooth in the pose, so the tasks' step is enough where the line itself needs a finer
-one, which the verify below a = 1 checks at the table's held-out poses); MuJoCo reads the correction at activation a
-as the band table's plus (arms(a) - arms(1)) from this one, trilinear in the pose and linear in a
+one, which the verify below a = 1 checks at the table's held-out poses; where the equilibrium the rule keeps changes
+branch between grid poses it jumps, and there the table misses, docs/fem.md); MuJoCo reads the correction at
+activation a as the band table's plus (arms(a) - arms(1)) from this one, trilinear in the pose and linear in a
 (`band_lines.BandLines`).
 
 The a = 1 equilibrium is the band table's rule (`bands.solve_poses`), so at each grid pose its arms are the band
