@@ -110,12 +110,13 @@ def _write(folder: Path, tendon: str, solved: dict, digest: str, band_meta: dict
     filled = np.stack([at1] + [at1 + bands.neighbours_mean(a - arms[0], u) for a, u in zip(arms[1:], unsolved[1:])])
     poses = bands.grid_poses()
     levels = (1.0,) + LEVELS
-    meta = {"tendon": tendon, "source": "fem footprint sheet, taut band (rest='pose') continued below a = 1",
+    meta = {"tendon": tendon, "source": "fem footprint sheet, taut band (rest='pose') taken below a = 1",
             "resolution": resolution, "levels": levels, "band_table_hash": band_meta["input_hash"],
             "scheme": "correction(q, a) = band table's c(q) + lin_a(trilinear(moment_arm_m[a]) - "
                       "trilinear(moment_arm_m[1]))",
-            "continuation": "Newton from the level above on the a = 1 equilibrium's branch, a step it fails on "
-                            "halved (footprint_compare.continued)",
+            "continuation": "at each level the least energy of the equilibrium continued from the level above "
+                            "(Newton, a step it fails on halved) and the ramp's from rest "
+                            "(footprint_compare.continued)",
             "unsolved_rule": "the a = 1 arms and each level's move from them: the mean of the solved neighbouring "
                              "grid poses' (one step along each coordinate)",
             "unsolved_poses_deg": {f"{a:g}": poses[u.reshape(-1)].tolist() for a, u in zip(levels, unsolved)},
