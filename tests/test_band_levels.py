@@ -69,17 +69,10 @@ def test_a_level_table_is_built_cached_read_and_verified(cell, tmp_path, capsys)
     assert band_levels.build(("tmi",), coarse=True, out=tmp_path, quiet=True)["tmi"]["cached"] is False
 
 
-def test_an_interrupted_level_build_resumes_and_unsolved_levels_take_their_neighbours(cell, monkeypatch, tmp_path):
+def test_an_interrupted_level_build_resumes_and_unsolved_levels_take_their_neighbours(cell, monkeypatch, tmp_path,
+                                                                                     interrupt_after_one_block):
     bands.build(("tmi",), coarse=True, out=tmp_path, quiet=True)
-    monkeypatch.setattr(bands, "SAVE_EVERY", 3)
-    solved, real = [], bands.solve_poses
-
-    def interrupted(t, poses, *a, **k):
-        if solved:
-            raise KeyboardInterrupt
-        solved.append(len(poses))
-        return real(t, poses, *a, **k)
-    monkeypatch.setattr(bands, "solve_poses", interrupted)
+    solved, real = interrupt_after_one_block()
     with pytest.raises(KeyboardInterrupt):
         band_levels.build(("tmi",), coarse=True, out=tmp_path, quiet=True)
     assert band_levels.partial_path("tmi", tmp_path).exists() and not levels_path("tmi", tmp_path).exists()

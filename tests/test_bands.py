@@ -268,20 +268,12 @@ def test_a_refined_grid_reuses_the_poses_its_previous_table_solved(cell, monkeyp
     assert bands.reusable(bands.table_path("pec1", tmp_path), "pec1", "coarse", bands.Material()) is None
 
 
-def test_an_interrupted_build_resumes_from_the_poses_it_saved(cell, monkeypatch, tmp_path):
+def test_an_interrupted_build_resumes_from_the_poses_it_saved(cell, monkeypatch, tmp_path, interrupt_after_one_block):
     """A build interrupted after its first block of poses keeps them (the partial file, with its input hash); the
     rerun solves only the rest, counts the resumed poses, removes the file and writes the table a build from nothing
     writes; a partial file from other inputs is not used."""
     monkeypatch.setattr(bands, "LEAST_ENERGY", ())  # the ramp alone: quick
-    monkeypatch.setattr(bands, "SAVE_EVERY", 3)
-    solved, real = [], bands.solve_poses
-
-    def interrupted(t, poses, *a, **k):
-        if solved:
-            raise KeyboardInterrupt
-        solved.append(len(poses))
-        return real(t, poses, *a, **k)
-    monkeypatch.setattr(bands, "solve_poses", interrupted)
+    solved, real = interrupt_after_one_block()
     with pytest.raises(KeyboardInterrupt):
         bands.build(("pec1",), coarse=True, out=tmp_path, quiet=True)
     partial = bands.partial_path("pec1", tmp_path)
