@@ -139,6 +139,15 @@ def test_the_head_is_a_sphere_about_the_joint_centre_and_the_cuff_insertions_ins
         F.FootprintSheet("ssp", pose=pose, surface="glenoid")
 
 
+def test_a_report_with_every_tendon_skipped_says_why_and_writes_nothing(tmp_path, capsys):
+    from shoulder_bench.cli import main
+
+    assert main(["fem", "footprint", "--rest", "pose", "--surface", "head", "--tendon", "ssc",
+                 "--out", str(tmp_path)]) == 2
+    assert "no sheet to solve: ssc: its insertion site lies inside the humeral head sphere" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_two_reports_compare_over_the_poses_both_solved(tmp_path):
     from shoulder_bench.authoring.fem.footprint_report import mesh_difference
 

@@ -85,8 +85,9 @@ def figure(results: list[dict], path: Path, surface: str = "wrap") -> None:
 
 def each_tendon(tendons, poses_each: int, desc: str, solve) -> list:
     """solve(tendon, progress) for every tendon under one progress bar of `poses_each` poses a tendon; a tendon
-    without a sheet (a ValueError, raised before any solve) is skipped, saying why. The footprint commands' loop."""
-    results = []
+    without a sheet (a ValueError, raised before any solve) is skipped, saying why; none left is a ValueError. The
+    footprint commands' loop."""
+    results, skipped = [], []
     with tqdm(total=len(tendons) * poses_each, desc=desc, unit="pose") as bar:
         for t in tendons:
             try:
@@ -94,6 +95,9 @@ def each_tendon(tendons, poses_each: int, desc: str, solve) -> list:
             except ValueError as exc:
                 bar.update(poses_each)
                 tqdm.write(f"skipped: {exc}")
+                skipped.append(str(exc))
+    if not results:
+        raise ValueError(f"no sheet to solve: {'; '.join(skipped) or 'no tendon given'}")
     return results
 
 
