@@ -370,3 +370,33 @@ def test_a_non_finite_stiffness_ends_newton_with_no_convergence_not_a_crash(monk
     monkeypatch.setattr(spla, "spsolve", lambda *a, **k: pytest.fail("spsolve called on a non-finite matrix"))
     with pytest.raises(NoConvergence, match="line search failed"):
         p.newton(x, 1.0)
+
+
+def test_the_line_search_never_accepts_a_point_whose_residual_is_not_finite(monkeypatch):
+    """An element collapsing in a trial step can leave the energy finite and lower while its gradient is NaN; the
+    energy (Armijo) test alone accepted such a point and the next iteration ended Newton ("line search failed
+    (residual nan N)": pec2's band at (82.5, 75, -37.5) on the full sheet). The search backs off from it instead and
+    Newton converges to the same equilibrium."""
+    sheet = _sheet(ns=5, nt=3)
+    p = MuscleProblem(sheet, Material(), SolverSettings(tol=1e-9), f0=75.0)
+    start = sheet["nodes"].copy()
+    start[:, 0] *= 1.2
+    start[p.free] += 1e-3
+    solved, _ = p.newton(start.copy(), 1.0)
+    real_gradient, real_energy = p.gradient, p.energy
+    calls, collapsed = [0], []
+
+    def gradient(y, a):  # the first trial point of the line search: a collapsed element, NaN gradient
+        calls[0] += 1
+        if calls[0] == 2:
+            collapsed.append(y.copy())
+            return real_gradient(y, a) * np.nan
+        return real_gradient(y, a)
+
+    def energy(y, a):  # ... and a finite, lower energy there
+        return real_energy(y, a) - (1e3 if any(np.array_equal(y, c) for c in collapsed) else 0.0)
+    monkeypatch.setattr(p, "gradient", gradient)
+    monkeypatch.setattr(p, "energy", energy)
+    x, _ = p.newton(start.copy(), 1.0)
+    assert collapsed and np.all(np.isfinite(x))
+    np.testing.assert_allclose(x, solved, atol=1e-6)

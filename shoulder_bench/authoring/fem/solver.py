@@ -227,13 +227,17 @@ class MuscleProblem:
         raise NoConvergence(f"no convergence in {s.max_iter} iterations (residual {np.max(np.abs(r)):.3g} N)")
 
     def _line_search(self, x, p, r, rn, e, activation):
-        """Backtrack on p until the residual norm or the energy (Armijo) decreases; None if neither does."""
+        """Backtrack on p until the residual norm or the energy (Armijo) decreases; None if neither does. A point
+        whose residual is not finite (an element collapsed: the energy can stay finite there) is never accepted."""
         fd = self.free_dofs
         t, slope = 1.0, float(r @ p)
         while t >= 1e-3:
             xt = x.copy()
             xt.reshape(-1)[fd] += t * p
             rt = self.gradient(xt, activation)[fd]
+            if not np.all(np.isfinite(rt)):
+                t *= 0.5
+                continue
             if np.linalg.norm(rt) <= (1.0 - 1e-4 * t) * rn:
                 return xt, rt
             if slope < 0.0 and self.energy(xt, activation) <= e + 1e-4 * t * slope:
