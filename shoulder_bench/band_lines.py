@@ -42,7 +42,8 @@ import numpy as np
 
 from shoulder_bench.muscle import law_cell
 
-BAND_TENDONS = ("ssp", "isp", "tmi", "tma", "pec1")  # the tendons whose footprint sheet is resolved (fem.bands)
+# the tendons whose footprint sheet is resolved (fem.bands)
+BAND_TENDONS = ("ssp", "isp", "tmi", "tma", "pec1", "pec2", "pec3")
 LINES = ("mjcf", "band")  # the 3-DOF tasks' `line_of_action` option
 AXES = ("plane_deg", "elevation_deg", "rotation_deg")
 REBUILD = "shoulder-bench fem build --bands"

@@ -184,7 +184,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     b.add_argument("--tendon", action="append", help="with --full or --bands: only this tendon (repeatable; default "
                    "all)")
     b.add_argument("--bands", action="store_true", help="the footprint sheets' line-of-action tables (taut bands) of "
-                   "ssp, isp, tmi, tma, pec1 over the 3-DOF pose grid (models/muscles_full/<t>_band.npz)")
+                   "ssp, isp, tmi, tma, pec1, pec2, pec3 over the 3-DOF pose grid (models/muscles_full/<t>_band.npz)")
     b.add_argument("--jobs", type=int, default=1, help="with --full: solve this many tendons at once (processes); "
                    "with --bands: this many processes solve each tendon's poses")
     b.add_argument("--variant", choices=("ld_transfer",), default=None, help="with --full: a rerouted geometry's "
@@ -217,8 +217,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     v.add_argument("--interpolation", choices=("linear", "cubic"), default="linear",
                    help="with --bands: the tables read trilinearly (the scheme) or by a tricubic spline")
     v.set_defaults(func=_verify)
-    f = sub.add_parser("footprint", help="footprint sheets (ssp, isp, ssc, tmi, tma, pec1) solved in 3-D with contact: "
-                       "their moment arms beside the MJCF tendons' over 72 poses (docs/fem.md)")
+    f = sub.add_parser("footprint", help="footprint sheets (ssp, isp, ssc, tmi, tma, pec1, pec2, pec3) solved in 3-D "
+                       "with contact: their moment arms beside the MJCF tendons' over 72 poses (docs/fem.md)")
     f.add_argument("--tendon", action="append", help="only this tendon (repeatable; default all)")
     f.add_argument("--coarse", action="store_true", help="coarse sheets (15 x 5 nodes instead of 31 x 9)")
     f.add_argument("--out", type=Path, default=None, help="folder for footprint.json and footprint_moment_arms.png")

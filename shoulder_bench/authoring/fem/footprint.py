@@ -4,8 +4,9 @@ any pose of the 3-DOF model, with the line of action and the torque about each c
 
 Which tendons: those whose free part (the MJCF path from the last humerus site to the next site, on the proximal bone)
 is straight or wraps one object, and whose footprint has a source (FOOTPRINT_M): the rotator cuff (ssp over a sphere,
-isp over a cylinder, ssc over a sphere, tmi straight), teres major (a sphere) and the clavicular pectoralis major
-(straight). pec2, pec3 and cor are draped as well but have no footprint of their own (`width_m` runs them); dmi and
+isp over a cylinder, ssc over a sphere, tmi straight), teres major (a sphere), the clavicular pectoralis major
+(straight) and the sternal one's two bundles (pec2, pec3: a sphere each; half the sternal head's footprint each, an
+assumption). cor is draped as well but has no footprint source (`width_m` runs it); dmi and
 dpo wrap with their side site inside the object (MuJoCo's inside wrapping, not done); dan and ld1-3 run on over a
 second proximal bone (their path's length beyond the first proximal site changes with the girdle).
 
@@ -55,8 +56,11 @@ from shoulder_bench.authoring.fem.solver import MuscleProblem, NoConvergence, So
 # 40 x 20, infraspinatus 29 x 19, supraspinatus 23 x 16, teres minor 29 x 21 mm). Teres major: Dancker M, Lambert S,
 # Brenner E. Teres major muscle - insertion footprint. J Anat 2017;230(5):631 (28 limbs: 49.6 x 7.4 mm, along the
 # crest of the lesser tubercle). Pectoralis major, clavicular head: 56.6 mm of humeral footprint (8 cadavers;
-# PMC9502243; its sternal head's 42.1 mm is not split here between MoBL's PECM2 and PECM3).
-FOOTPRINT_M = {"ssp": 0.023, "isp": 0.029, "ssc": 0.040, "tmi": 0.029, "tma": 0.0496, "pec1": 0.0566}
+# PMC9502243). Its sternal head: 42.1 mm there, split equally between MoBL's two sternocostal bundles PECM2 and PECM3
+# (21.05 mm each, each centred on its own insertion site): no source splits it (Fung et al. 2009, Clin Anat,
+# doi:10.1002/ca.20784, find the sternal head in 6-7 segments into one tendon), so the even split is an assumption.
+FOOTPRINT_M = {"ssp": 0.023, "isp": 0.029, "ssc": 0.040, "tmi": 0.029, "tma": 0.0496, "pec1": 0.0566,
+               "pec2": 0.0421 / 2, "pec3": 0.0421 / 2}
 TENDONS = tuple(FOOTPRINT_M)
 # The humeral head of the MoBL-ARMS parent's humerus surface (humerus.vtp of osim-rl 3.0.11's MoBL_ARMS_J.osim) as a
 # sphere in the humerus frame: `python models/reference/scripts/humeral_head.py <humerus.vtp>` (62 vertices, RMS
