@@ -116,6 +116,17 @@ def test_held_out_0_checks_only_what_mujoco_applies(capsys):
     assert "0 held-out poses" in out and "tmi rotation: MuJoCo-applied vs FEM at all 840 grid poses x 6 levels" in out
 
 
+def test_every_shipped_band_table_is_up_to_date_with_its_inputs(monkeypatch):
+    """The build's own cache rule (its stored input hash equals the one the current inputs give: model file, footprint
+    width, sheet, material, solver, grid, code version) for every shipped table; a changed footprint is found stale."""
+    from shoulder_bench.band_lines import BAND_TENDONS
+
+    stored = {t: bands.BandTable(bands.table_path(t)).meta["input_hash"] for t in BAND_TENDONS}
+    assert stored == {t: bands.input_hash(t, "full", bands.Material()) for t in BAND_TENDONS}
+    monkeypatch.setitem(bands.FOOTPRINT_M, "pec2", 0.0421)  # the whole sternal head for one bundle
+    assert bands.input_hash("pec2", "full", bands.Material()) != stored["pec2"]
+
+
 def test_an_unsolved_grid_pose_takes_its_solved_neighbours_correction(cell, monkeypatch, tmp_path):
     """The neighbours' mean, one step along each coordinate; more than MAX_UNSOLVED of the grid unsolved fails. (tmi
     solved by the ramp alone here: with `least_energy` the other starts would find the pose's equilibrium.)"""
