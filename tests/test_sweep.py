@@ -122,7 +122,7 @@ def _running_child(out, seed=0, timeout=120):
 def _gone(pid, timeout=90):
     """Whether process `pid` ends within `timeout` s: gone, or a zombie (it has exited; its reaper, the container's
     init once its parent was killed, may not have collected it yet). A generous timeout: on a loaded 2-core machine the
-    30 s this had once ran out (a fresh-clone suite beside a 2-process FEM verify; not reproduced alone)."""
+    30 s this had once ran out (a fresh-clone suite beside a one-process FEM verify; not reproduced alone)."""
     deadline = time.time() + timeout
     while time.time() < deadline:
         try:
