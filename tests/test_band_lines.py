@@ -63,7 +63,7 @@ def test_mujoco_applies_the_band_line_of_action_with_either_callback():
     f = law.force(L, np.zeros_like(L), np.full((1, len(law.muscles)), 0.4))[0]
     own = d.qfrc_passive - d.qfrc_spring - d.qfrc_damper - d.qfrc_gravcomp - d.qfrc_fluid
     np.testing.assert_allclose(S.T @ (d.qfrc_actuator + own), f @ r[0], rtol=1e-9)
-    cols = [law.actuators.index(t) for t in BAND_TENDONS]
+    cols = [law.actuators.index(t) for t in law.lines.tendons]  # the lines' order: the model's
     np.testing.assert_allclose(band, f[cols] @ law.lines.correction(POSE, 0.4)[0], rtol=1e-9)
 
 

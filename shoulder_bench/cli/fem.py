@@ -184,7 +184,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     b.add_argument("--tendon", action="append", help="with --full or --bands: only this tendon (repeatable; default "
                    "all)")
     b.add_argument("--bands", action="store_true", help="the footprint sheets' line-of-action tables (taut bands) of "
-                   "ssp, isp, tmi, tma, pec1, pec2, pec3 over the 3-DOF pose grid (models/muscles_full/<t>_band.npz)")
+                   "ssp, isp, tmi, tma, pec1, pec2, pec3, dpo over the 3-DOF pose grid "
+                   "(models/muscles_full/<t>_band.npz)")
     b.add_argument("--jobs", type=int, default=1, help="with --full: solve this many tendons at once (processes); "
                    "with --bands: this many processes solve each tendon's poses")
     b.add_argument("--variant", choices=("ld_transfer",), default=None, help="with --full: a rerouted geometry's "
@@ -217,14 +218,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     v.add_argument("--interpolation", choices=("linear", "cubic"), default="linear",
                    help="with --bands: the tables read trilinearly (the scheme) or by a tricubic spline")
     v.set_defaults(func=_verify)
-    f = sub.add_parser("footprint", help="footprint sheets (ssp, isp, ssc, tmi, tma, pec1, pec2, pec3) solved in 3-D "
-                       "with contact: their moment arms beside the MJCF tendons' over 72 poses (docs/fem.md)")
+    f = sub.add_parser("footprint", help="footprint sheets (ssp, isp, ssc, tmi, tma, pec1, pec2, pec3, dmi, dpo) "
+                       "solved in 3-D with contact: their moment arms beside the MJCF tendons' over 72 poses "
+                       "(docs/fem.md)")
     f.add_argument("--tendon", action="append", help="only this tendon (repeatable; default all)")
     f.add_argument("--coarse", action="store_true", help="coarse sheets (15 x 5 nodes instead of 31 x 9)")
     f.add_argument("--out", type=Path, default=None, help="folder for footprint.json and footprint_moment_arms.png")
     f.add_argument("--surface", choices=("wrap", "head"), default="wrap",
                    help="contact with the MJCF's wrap objects (default) or with the humeral head sphere fitted to the "
-                   "MoBL parent's humerus (ssp and isp; footprint_head.json)")
+                   "MoBL parent's humerus (ssp, isp, dmi, dpo; footprint_head.json)")
     f.add_argument("--activation", action="store_true",
                    help="instead: solve at activations 0, 0.25, 0.5, 1 and report how the line of action and the "
                    "torque depend on the activation (footprint_activation.json)")

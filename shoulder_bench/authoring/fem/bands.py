@@ -56,7 +56,7 @@ from tqdm import tqdm
 
 from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem import rounded
-from shoulder_bench.authoring.fem.footprint import FOOTPRINT_M, SETTINGS
+from shoulder_bench.authoring.fem.footprint import FLAT_DRAPE, FOOTPRINT_M, SETTINGS
 from shoulder_bench.authoring.fem.footprint_compare import compare
 from shoulder_bench.authoring.fem.full import locked_folder
 from shoulder_bench.authoring.fem.material import Material
@@ -71,9 +71,9 @@ MAX_UNSOLVED = 0.01
 # Each tendon's grid step: the tasks' divided by this (1 if absent), in every coordinate or per coordinate (plane,
 # elevation, rotation). Where the held-out check on the tasks' grid missed by interpolation (band_refine.py: ssp
 # and pec1 within the bound at their worst pose on a grid twice as fine; pec3 twice as fine too, as pec1; tma's worst
-# cell at a third of the step in plane and rotation, where its arms bend, then half in elevation; docs/fem.md "What
-# each miss is", "tma", "tma: half the elevation step", "pec2 and pec3")
-REFINE = {"ssp": 2, "pec1": 2, "tma": (3, 2, 3), "pec3": 2}
+# cell at a third of the step in plane and rotation, where its arms bend, then half in elevation; dpo half in plane,
+# its misses about it; docs/fem.md "What each miss is", "tma", "tma: half the elevation step", "pec2 and pec3")
+REFINE = {"ssp": 2, "pec1": 2, "tma": (3, 2, 3), "pec3": 2, "dpo": (2, 1, 1)}
 # Tendons whose band is solved as the least-energy of several equilibria (`least_energy`), with how many of
 # `probe_offsets`' six starts beside the ramp's: tmi, whose sheet (no contact surface) has two at some poses, the ramp
 # from rest landing on the higher, all six; tma and ssp, where any one start found the lower equilibrium at each
@@ -81,11 +81,11 @@ REFINE = {"ssp": 2, "pec1": 2, "tma": (3, 2, 3), "pec3": 2}
 # grid was such a pose), one (docs/fem.md "What each miss is", "tma", "ssp: one start")
 LEAST_ENERGY = {"tmi": 6, "tma": 1, "ssp": 1}
 PROBE_FRACTION = 0.25  # the starts' offsets from the pose, in tasks' grid steps
-# Each tendon's contact surface (`footprint.SURFACES`; "wrap", the MJCF's wrap object, if absent): isp's on the humeral
-# head sphere (`footprint.HUMERAL_HEAD`), since on the parent's 23.5 mm wrap cylinder its band follows the MJCF path's
-# jump at high elevation in external rotation (the path's origin enters the cylinder's radius and the wrap stops)
-# and no table of it meets the held-out bound (docs/fem.md "isp: the humeral head")
-SURFACE = {"isp": "head"}
+# Each tendon's contact surface (`footprint.SURFACES`; "wrap", the MJCF's wrap object, if absent): the humeral head
+# sphere (`footprint.HUMERAL_HEAD`) for isp, whose band on the parent's 23.5 mm cylinder follows the MJCF path's jump at
+# high elevation in external rotation and no table of it meets the held-out bound (docs/fem.md "isp: the humeral
+# head"), and for dpo (and dmi, not tabled), whose MJCF wraps are MuJoCo's inside wrapping (docs/fem.md "The deltoids")
+SURFACE = {"isp": "head", "dmi": "head", "dpo": "head"}
 SURFACE_TEXT = {"wrap": "the MJCF's wrap object", "head": "the humeral head sphere"}  # in each table's meta
 
 
@@ -125,11 +125,11 @@ def mesh_poses(values) -> np.ndarray:
 
 def input_hash(tendon: str, resolution: str, material: Material, grid_axes=None) -> str:
     """The hash of all a table's solutions depend on, its grid `grid_axes` (default `axes(tendon)`) included."""
-    # the rule for LEAST_ENERGY tendons only, and its number of starts where fewer than six, so that the tables built
-    # before either was a choice keep their hashes
+    # LEAST_ENERGY's rule, its starts where fewer than six, FLAT_DRAPE's drape: only where chosen (older hashes stay)
     rule = {"equilibrium": "least energy", "probe": PROBE_FRACTION} if tendon in LEAST_ENERGY else {}
     if rule and LEAST_ENERGY[tendon] < 6:
         rule["starts"] = LEAST_ENERGY[tendon]
+    rule.update({"drape": "flat"} if tendon in FLAT_DRAPE else {})
     blob = json.dumps(rounded({"model": hashlib.sha256(full_arm.MODEL_FILE.read_bytes()).hexdigest(),
                                "tendon": tendon, "width_m": FOOTPRINT_M[tendon], "resolution": resolution,
                                "surface": surface(tendon), "rest": "pose", "material": material.as_dict(),

@@ -6,9 +6,10 @@ Which tendons: those whose free part (the MJCF path from the last humerus site t
 is straight or wraps one object, and whose footprint has a source (FOOTPRINT_M): the rotator cuff (ssp over a sphere,
 isp over a cylinder, ssc over a sphere, tmi straight), teres major (a sphere), the clavicular pectoralis major
 (straight) and the sternal one's two bundles (pec2, pec3: a sphere each; half the sternal head's footprint each, an
-assumption). cor is draped as well but has no footprint source (`width_m` runs it); dmi and
-dpo wrap with their side site inside the object (MuJoCo's inside wrapping, not done); dan and ld1-3 run on over a
-second proximal bone (their path's length beyond the first proximal site changes with the girdle).
+assumption), and the middle and posterior deltoids (dmi, dpo): their MJCF wraps have the side site inside the object
+(MuJoCo's inside wrapping, which no sheet follows), so their sheets drape over the humeral head only (surface "head").
+cor is draped as well but has no footprint source (`width_m` runs it); dan and ld1-3 run on over a second proximal
+bone (their path's length beyond the first proximal site changes with the girdle).
 
 Geometry. The origin line is centred on the proximal site P, the insertion line on the last humerus site Q,
 both along n = (P - c) x (Q - c) at the reference pose (c: the wrap object's centre, or the joint centre for a
@@ -20,7 +21,8 @@ of the origin line to the matching point of the insertion line. Its initial shap
 wrap's side site); then the solve decides where the sheet lies: the contact with the surface is the solver's penalty
 (`solver.MuscleProblem`), not a prescribed path. The contact surface (`surface`) is the MJCF's wrap object (the MoBL
 parent's, as the MJCF has them: MuJoCo wraps spheres and cylinders only), or the humeral head (HUMERAL_HEAD, a
-sphere fitted to the parent's humerus surface; for ssp and isp: the ssc and tmi insertion sites lie inside it).
+sphere fitted to the parent's humerus surface; for ssp, isp, dmi and dpo: the ssc and tmi insertion sites lie inside
+it). The greater tuberosity, over which the deltoid drapes too, is not a contact surface here (the head sphere only).
 
 Reference (stress-free, fibres at optimal length): the sheet at REFERENCE_POSE_DEG, carried to other poses by a walk
 (rest="reference"). The sheet is all fibre (no tendon in series): these solves are about the line of action, which
@@ -59,14 +61,22 @@ from shoulder_bench.authoring.fem.solver import MuscleProblem, NoConvergence, So
 # PMC9502243). Its sternal head: 42.1 mm there, split equally between MoBL's two sternocostal bundles PECM2 and PECM3
 # (21.05 mm each, each centred on its own insertion site): no source splits it (Fung et al. 2009, Clin Anat,
 # doi:10.1002/ca.20784, find the sternal head in 6-7 segments into one tendon), so the even split is an assumption.
+# Deltoid: the widths of the middle (4.7 mm) and posterior (7.8 mm) heads' insertions, across the humeral shaft, along
+# which their fibres arrive (Rispoli DM, Athwal GS, Sperling JW, Cofield RH. The anatomy of the deltoid insertion.
+# J Shoulder Elbow Surg 2009;18(3):386; 10 cadavers; their lengths along the shaft 48.4 and 63.4 mm).
 FOOTPRINT_M = {"ssp": 0.023, "isp": 0.029, "ssc": 0.040, "tmi": 0.029, "tma": 0.0496, "pec1": 0.0566,
-               "pec2": 0.0421 / 2, "pec3": 0.0421 / 2}
+               "pec2": 0.0421 / 2, "pec3": 0.0421 / 2, "dmi": 0.0047, "dpo": 0.0078}
 TENDONS = tuple(FOOTPRINT_M)
 # The humeral head of the MoBL-ARMS parent's humerus surface (humerus.vtp of osim-rl 3.0.11's MoBL_ARMS_J.osim) as a
 # sphere in the humerus frame: `python models/reference/scripts/humeral_head.py <humerus.vtp>` (62 vertices, RMS
 # residual 0.89 mm). Cf. the 24 mm mean radius of curvature of Iannotti et al. 1992 (J Bone Joint Surg Am 74:491).
 HUMERAL_HEAD = {"centre_m": (0.00042, -0.00053, 0.0019), "radius_m": 0.02432}
 SURFACES = ("wrap", "head")  # contact with the MJCF's wrap object, or with the humeral head sphere
+# Tendons whose sheet drapes as a flat band: every fibre in the plane parallel to the central fibre's great circle
+# (wrapped as on a cylinder about that plane's normal), where each fibre over its own great circle tears the band:
+# the deltoids' acromial origin and humeral insertion come within 2 deg of antipodal about the head's centre at the
+# side in external rotation, and there fibres 5 mm apart take great circles far apart (docs/fem.md "The deltoids")
+FLAT_DRAPE = ("dmi", "dpo")
 # The sheet's stress-free state: its draped shape at REFERENCE_POSE_DEG, carried to every pose by a walk ("reference":
 # the fibres lengthen and shorten with the pose, and go slack), or its draped shape at the pose it is solved at
 # ("pose": every fibre at its optimal length at every pose, a taut band whose line of action is defined everywhere)
@@ -93,6 +103,9 @@ class FootprintSheet:
         self.pose = pose or full_arm.Pose()
         self.m, self.d = self.pose.m, mujoco.MjData(self.pose.m)
         self.part = free_part(self.m, tendon)
+        if surface == "wrap" and self.part.inside:
+            raise ValueError(f"{tendon}: its wrap's side site lies inside the object (MuJoCo's inside wrapping; not "
+                             "draped): its contact surface is the humeral head (surface='head')")
         self.surface = surface
         self.width = float(FOOTPRINT_M[tendon] if width_m is None else width_m)
         self.ns, self.nt = RESOLUTION[resolution] if isinstance(resolution, str) else resolution
@@ -168,24 +181,27 @@ class FootprintSheet:
         c = surface[0] if surface is not None else self.d.xanchor[self.m.joint("shoulder_elv").id].copy()
         return p, q, c
 
-    def _fibre(self, p, q, n: int) -> tuple[np.ndarray, float]:
-        """A fibre's initial shape from p to q: over the contact surface as MuJoCo wraps (`wrap_geodesic`), or
-        straight."""
+    def _fibre(self, p, q, n: int, normal=None) -> tuple[np.ndarray, float]:
+        """A fibre's initial shape from p to q: over the contact surface as MuJoCo wraps (`wrap_geodesic`; over a
+        sphere in the plane through its centre normal to `normal` if given, as on a cylinder), or straight."""
         surface = self._contact_surface()
         if surface is None:
             return p + np.linspace(0, 1, n)[:, None] * (q - p), float(np.linalg.norm(q - p))
         c, radius, axis, side, _ = surface
-        return wrap_geodesic(p, q, c, radius, n, axis, side)
+        return wrap_geodesic(p, q, c, radius, n, normal if axis is None and normal is not None else axis, side)
 
     def draped(self) -> np.ndarray:
         """(ns nt, 3) the sheet's initial shape at the current pose: each fibre wrapped as MuJoCo wraps a tendon
-        over the contact surface (`_fibre`), from its origin-line point to its insertion-line point."""
-        p, q, _ = self._ends()
+        over the contact surface (`_fibre`), from its origin-line point to its insertion-line point; for FLAT_DRAPE
+        tendons in planes parallel to the central fibre's."""
+        p, q, c = self._ends()
+        n = np.cross(p - c, q - c) if self.part.tendon in FLAT_DRAPE else None
+        normal = None if n is None or np.linalg.norm(n) < 1e-12 else n / np.linalg.norm(n)
         out = np.empty((self.ns, self.nt, 3))
         for j, t in enumerate(np.linspace(-0.5, 0.5, self.nt)):
             pj = p + t * self.width * self._frame("origin")[1] @ self.across["origin"]
             qj = q + t * self.width * self._frame("insertion")[1] @ self.across["insertion"]
-            out[:, j] = self._fibre(pj, qj, self.ns)[0]
+            out[:, j] = self._fibre(pj, qj, self.ns, normal)[0]
         return out.reshape(-1, 3)
 
     def central_length(self) -> float:

@@ -19,6 +19,7 @@ class FreePart:
     insertion_site: int
     wrap: int | None  # geom id of the wrap sphere or cylinder, or None (straight)
     sidesite: int | None  # the wrap's side site, if any
+    inside: bool = False  # the side site lies inside the object (MuJoCo's inside wrapping, which no sheet follows)
 
 
 def path_items(m: mujoco.MjModel, tendon: str) -> list[tuple[int, int, float]]:
@@ -32,7 +33,8 @@ def free_part(m: mujoco.MjModel, tendon: str) -> FreePart:
     """The tendon's free part: from its last humerus site Q (the sites and wraps before it, on the humerus, have a
     constant length) to the next site P on the proximal bone, with the sphere or cylinder between them, if any; the
     path may be written from either end. Refused where the free part wraps more than one object, or where the path
-    goes on over a second proximal bone (its length beyond P would change with the girdle)."""
+    goes on over a second proximal bone (its length beyond P would change with the girdle). A wrap whose side site
+    lies inside the object (MuJoCo's inside wrapping, which `wrap_geodesic` does not do) is marked `inside`."""
     hum = m.body("humerus").id
     site = int(mujoco.mjtWrap.mjWRAP_SITE)
     items = path_items(m, tendon)
@@ -56,14 +58,12 @@ def free_part(m: mujoco.MjModel, tendon: str) -> FreePart:
         raise ValueError(f"{tendon}: its free part wraps {len(wraps)} objects, not one (no contact for that yet)")
     if not wraps:
         return FreePart(tendon, items[k][1], items[j][1], None, None)
-    side = int(wraps[0][2])
-    if side >= 0:  # a side site inside the object: MuJoCo's inside wrapping, which `wrap_geodesic` does not do
+    side, inside = int(wraps[0][2]), False
+    if side >= 0:
         d = mujoco.MjData(m)
         mujoco.mj_kinematics(m, d)
-        if np.linalg.norm(d.site_xpos[side] - d.geom_xpos[wraps[0][1]]) < m.geom_size[wraps[0][1], 0]:
-            raise ValueError(f"{tendon}: its wrap's side site lies inside the object (MuJoCo's inside wrapping; not "
-                             "draped)")
-    return FreePart(tendon, items[k][1], items[j][1], wraps[0][1], side if side >= 0 else None)
+        inside = bool(np.linalg.norm(d.site_xpos[side] - d.geom_xpos[wraps[0][1]]) < m.geom_size[wraps[0][1], 0])
+    return FreePart(tendon, items[k][1], items[j][1], wraps[0][1], side if side >= 0 else None, inside)
 
 
 def _segments_cross(a0, a1, b0, b1) -> bool:
