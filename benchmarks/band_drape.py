@@ -1,7 +1,8 @@
-"""How a taut band's drape changes its equilibrium (docs/fem.md "The deltoids"): each fibre over its own great circle
-of the contact sphere, against the flat drape (`footprint.FLAT_DRAPE`: every fibre in the plane parallel to the
-central fibre's). For each pose: the origin's resultant (tension) over F0, how far the equilibrium lies from the
-drape (the sheet's stress-free shape), the contact force and the moment arms, at a = 1.
+"""How a taut band's drape changes its equilibrium (docs/fem.md "The deltoids"): each fibre over its own great circle of
+the contact sphere, against the flat drape (`footprint.FLAT_DRAPE`: every fibre in the plane parallel to the central
+fibre's), for any footprint tendon on its band table's contact surface (`bands.surface`). For each pose: the origin's
+resultant (tension) over F0, how far the equilibrium lies from the drape (the sheet's stress-free shape), the contact
+force and the moment arms, at a = 1.
 
     python benchmarks/band_drape.py --tendon dpo --at 90 100 60 --at 30 60 0
 """
@@ -13,11 +14,12 @@ import numpy as np
 
 from shoulder_bench.authoring.fem import bands
 from shoulder_bench.authoring.fem import footprint as F
+from shoulder_bench.authoring.fem.solver import NoConvergence
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--tendon", choices=F.FLAT_DRAPE, required=True)
+    p.add_argument("--tendon", choices=F.TENDONS, required=True)
     p.add_argument("--at", nargs=3, type=float, action="append", required=True, metavar=("PLANE", "ELV", "ROT"))
     p.add_argument("--coarse", action="store_true", help="15 x 5 nodes instead of 31 x 9")
     args = p.parse_args(argv)
@@ -30,7 +32,11 @@ def main(argv=None) -> int:
             sheet = F.FootprintSheet(args.tendon, "coarse" if args.coarse else "full",
                                      surface=bands.surface(args.tendon), rest="pose")
             for pose in map(tuple, args.at):
-                s = sheet.solve(pose)
+                try:
+                    s = sheet.solve(pose)
+                except NoConvergence as exc:
+                    print(f"{drape:>14} {pose}: no equilibrium ({exc})")
+                    continue
                 moved = 1e3 * np.abs(s["nodes"] - sheet.problem.X).max()
                 arms = " / ".join(f"{v:.2f}" for v in 1e3 * s["moment_arm_m"])
                 mjcf = " / ".join(f"{v:.2f}" for v in 1e3 * sheet.mjcf_moment_arm(pose))
