@@ -73,9 +73,10 @@ TENDONS = tuple(FOOTPRINT_M)
 HUMERAL_HEAD = {"centre_m": (0.00042, -0.00053, 0.0019), "radius_m": 0.02432}
 SURFACES = ("wrap", "head")  # contact with the MJCF's wrap object, or with the humeral head sphere
 # Tendons whose sheet drapes as a flat band: every fibre in the plane parallel to the central fibre's great circle
-# (wrapped as on a cylinder about that plane's normal), where each fibre over its own great circle tears the band:
-# the deltoids' acromial origin and humeral insertion come within 2 deg of antipodal about the head's centre at the
-# side in external rotation, and there fibres 5 mm apart take great circles far apart (docs/fem.md "The deltoids")
+# (wrapped as on a cylinder about that plane's normal), where each fibre over its own great circle tears the band
+# (dpo pulls 1.19 F0 from a drape so torn; dmi's acromial origin and humeral insertion come within 2 deg of antipodal
+# about the head's centre at the side in external rotation, where fibres 5 mm apart take great circles far apart;
+# docs/fem.md "The deltoids"). Narrow bands only: isp's 29 mm band, sliced flat, finds no equilibrium at some poses.
 FLAT_DRAPE = ("dmi", "dpo")
 # The sheet's stress-free state: its draped shape at REFERENCE_POSE_DEG, carried to every pose by a walk ("reference":
 # the fibres lengthen and shorten with the pose, and go slack), or its draped shape at the pose it is solved at
