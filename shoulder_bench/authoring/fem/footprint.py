@@ -106,7 +106,8 @@ class FootprintSheet:
         self.part = free_part(self.m, tendon)
         if surface == "wrap" and self.part.inside:
             raise ValueError(f"{tendon}: its wrap's side site lies inside the object (MuJoCo's inside wrapping; not "
-                             "draped): its contact surface is the humeral head (surface='head')")
+                             "draped): its contact surface is the humeral head (surface='head', `fem footprint "
+                             "--surface head`)")
         self.surface = surface
         self.width = float(FOOTPRINT_M[tendon] if width_m is None else width_m)
         self.ns, self.nt = RESOLUTION[resolution] if isinstance(resolution, str) else resolution
