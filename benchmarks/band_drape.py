@@ -23,27 +23,22 @@ def main(argv=None) -> int:
     p.add_argument("--at", nargs=3, type=float, action="append", required=True, metavar=("PLANE", "ELV", "ROT"))
     p.add_argument("--coarse", action="store_true", help="15 x 5 nodes instead of 31 x 9")
     args = p.parse_args(argv)
-    kept = F.FLAT_DRAPE
     print(f"{args.tendon}: drape, pose -> tension / F0, largest |x - X| (mm), contact (N), moment arms plane / "
           "elevation / rotation (mm); MJCF's")
-    try:
-        for drape, flat in (("great circles", ()), ("flat", (args.tendon,))):
-            F.FLAT_DRAPE = flat
-            sheet = F.FootprintSheet(args.tendon, "coarse" if args.coarse else "full",
-                                     surface=bands.surface(args.tendon), rest="pose")
-            for pose in map(tuple, args.at):
-                try:
-                    s = sheet.solve(pose)
-                except NoConvergence as exc:
-                    print(f"{drape:>14} {pose}: no equilibrium ({exc})")
-                    continue
-                moved = 1e3 * np.abs(s["nodes"] - sheet.problem.X).max()
-                arms = " / ".join(f"{v:.2f}" for v in 1e3 * s["moment_arm_m"])
-                mjcf = " / ".join(f"{v:.2f}" for v in 1e3 * sheet.mjcf_moment_arm(pose))
-                print(f"{drape:>14} {pose}: {s['tension_N'] / sheet.f0:.2f}, {moved:.1f}, {s['contact_N']:.0f}, "
-                      f"{arms}; {mjcf}")
-    finally:
-        F.FLAT_DRAPE = kept
+    for drape, flat in (("great circles", False), ("flat", True)):
+        sheet = F.FootprintSheet(args.tendon, "coarse" if args.coarse else "full", surface=bands.surface(args.tendon),
+                                 rest="pose", flat=flat)
+        for pose in map(tuple, args.at):
+            try:
+                s = sheet.solve(pose)
+            except NoConvergence as exc:
+                print(f"{drape:>14} {pose}: no equilibrium ({exc})")
+                continue
+            moved = 1e3 * np.abs(s["nodes"] - sheet.problem.X).max()
+            arms = " / ".join(f"{v:.2f}" for v in 1e3 * s["moment_arm_m"])
+            mjcf = " / ".join(f"{v:.2f}" for v in 1e3 * sheet.mjcf_moment_arm(pose))
+            print(f"{drape:>14} {pose}: {s['tension_N'] / sheet.f0:.2f}, {moved:.1f}, {s['contact_N']:.0f}, "
+                  f"{arms}; {mjcf}")
     return 0
 
 

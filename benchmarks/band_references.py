@@ -15,17 +15,12 @@ import argparse
 
 import numpy as np
 
-from shoulder_bench.authoring import references
+from shoulder_bench.authoring import mobl_data, references
 from shoulder_bench.authoring.fem import bands
 from shoulder_bench.authoring.fem.footprint import TENDONS, FootprintSheet
 
 COORDINATES = ("elv_angle", "shoulder_elv", "shoulder_rot")  # plane, elevation, rotation: the band's order
 ELEVATIONS = np.arange(0.0, 121.0, 10.0)
-
-
-def bundle(tendon: str) -> str:
-    """The MoBL bundle `tendon` reconstructs (DELT2 for dmi, ...)."""
-    return next(b for m in references.FULL_TENDONS.values() for t, b in m.items() if t == tendon)
 
 
 def main(argv=None) -> int:
@@ -35,7 +30,7 @@ def main(argv=None) -> int:
     p.add_argument("--rotation", type=int, choices=(-45, 0, 30), default=0)
     p.add_argument("--coordinate", choices=COORDINATES, default="shoulder_elv")
     args = p.parse_args(argv)
-    k = COORDINATES.index(args.coordinate)
+    k, bundle = COORDINATES.index(args.coordinate), mobl_data.FULL_MUSCLES[args.tendon]  # DELT2 for dmi, ...
     sheet = FootprintSheet(args.tendon, "full", surface=bands.surface(args.tendon), rest="pose")
     band, mjcf, contact = [], [], []
     for e in ELEVATIONS:
@@ -47,9 +42,9 @@ def main(argv=None) -> int:
     tables = references.load()
     rows = {"band (FEM)": band, "MJCF": mjcf}
     for model in references.REFERENCES:
-        rows[references.SHORT[model]] = tables.raw_curve(model, bundle(args.tendon), args.coordinate, args.plane,
+        rows[references.SHORT[model]] = tables.raw_curve(model, bundle, args.coordinate, args.plane,
                                                          "coupled", ELEVATIONS, args.rotation)
-    print(f"{args.tendon} ({bundle(args.tendon)}) moment arm about {args.coordinate} (mm), plane {args.plane} deg, "
+    print(f"{args.tendon} ({bundle}) moment arm about {args.coordinate} (mm), plane {args.plane} deg, "
           f"rotation {args.rotation} deg, girdle coupled; band on {bands.SURFACE_TEXT[bands.surface(args.tendon)]}")
     print(f"{'elevation':>12}" + "".join(f"{e:7.0f}" for e in ELEVATIONS))
     for name, r in rows.items():

@@ -41,9 +41,8 @@ OPTIONS = {
     "fatigue": "False, True or a dict of 3CC-r parameters F, R, r, LD, LR: per-muscle fatigue, the residual "
                "capacity 1 - M_F caps the activation",
     "line_of_action": "'mjcf' or 'band' (3-DOF tasks only): 'band' makes ssp, isp, tmi, tma, pec1, pec2, pec3 and "
-                      "dpo act "
-                      "along their FEM footprint sheet's line of action (shoulder_bench.band_lines), the others along "
-                      "their MJCF paths",
+                      "dpo act along their FEM footprint sheet's line of action (shoulder_bench.band_lines), the "
+                      "others along their MJCF paths",
 }
 
 # each option's default, as `shoulder-bench tasks --options` shows it (None where the task decides)

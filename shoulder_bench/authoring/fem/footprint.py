@@ -94,7 +94,7 @@ class FootprintSheet:
 
     def __init__(self, tendon: str, resolution: str | tuple[int, int] = "coarse", width_m: float | None = None,
                  pose: full_arm.Pose | None = None, material: Material | None = None, surface: str = "wrap",
-                 rest: str = "reference"):
+                 rest: str = "reference", flat: bool | None = None):
         if tendon not in FOOTPRINT_M and width_m is None:
             raise ValueError(f"no footprint for {tendon!r}; tendons with one: {', '.join(TENDONS)}")
         if surface not in SURFACES:
@@ -109,6 +109,7 @@ class FootprintSheet:
                              "draped): its contact surface is the humeral head (surface='head', `fem footprint "
                              "--surface head`)")
         self.surface = surface
+        self.flat = tendon in FLAT_DRAPE if flat is None else bool(flat)  # the drape: flat, or fibre by fibre
         self.width = float(FOOTPRINT_M[tendon] if width_m is None else width_m)
         self.ns, self.nt = RESOLUTION[resolution] if isinstance(resolution, str) else resolution
         self.bodies = {"origin": int(self.m.site_bodyid[self.part.origin_site]),
@@ -195,9 +196,9 @@ class FootprintSheet:
     def draped(self) -> np.ndarray:
         """(ns nt, 3) the sheet's initial shape at the current pose: each fibre wrapped as MuJoCo wraps a tendon
         over the contact surface (`_fibre`), from its origin-line point to its insertion-line point; for FLAT_DRAPE
-        tendons in planes parallel to the central fibre's."""
+        tendons (or `flat`) in planes parallel to the central fibre's."""
         p, q, c = self._ends()
-        n = np.cross(p - c, q - c) if self.part.tendon in FLAT_DRAPE else None
+        n = np.cross(p - c, q - c) if self.flat else None
         normal = None if n is None or np.linalg.norm(n) < 1e-12 else n / np.linalg.norm(n)
         out = np.empty((self.ns, self.nt, 3))
         for j, t in enumerate(np.linspace(-0.5, 0.5, self.nt)):
