@@ -1,6 +1,6 @@
 """Would a finer pose grid bring a band table within the 2 % held-out bound where it misses? (docs/fem.md "Taut bands")
 
-    .venv/bin/python benchmarks/band_refine.py [--tendon T ...] [--at PLANE ELEVATION ROTATION]
+    .venv/bin/python benchmarks/band_refine.py [--tendon T ...] [--at PLANE ELEVATION ROTATION ...]
         [--factors KP KE KR ...] [--starts N] [--branches]                        (seconds to minutes a tendon)
 
 At a held-out pose p of the tasks' grid (a cell centre: by default the pose where `fem verify --bands` found each
@@ -128,8 +128,8 @@ def branches(tendon: str, at) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tendon", nargs="+", choices=FOOTPRINT_TENDONS, default=list(FOOTPRINT_TENDONS))
-    ap.add_argument("--at", nargs=3, type=float, metavar=("PLANE", "ELEVATION", "ROTATION"),
-                    help="the held-out pose (deg; default each tendon's worst, WORST_DEG)")
+    ap.add_argument("--at", nargs=3, type=float, action="append", metavar=("PLANE", "ELEVATION", "ROTATION"),
+                    help="a held-out pose (deg; repeatable; default each tendon's worst, WORST_DEG)")
     ap.add_argument("--factors", nargs=3, type=int, action="append", metavar=("KP", "KE", "KR"),
                     help="a finer grid in the cell: the tasks' step divided by these (plane, elevation, rotation); "
                     "repeatable (default 2 2 2)")
@@ -142,11 +142,11 @@ def main() -> None:
                     "object, or head, the humeral head sphere)")
     args = ap.parse_args()
     for t in args.tendon:
-        if args.branches:
-            branches(t, args.at or WORST_DEG[t])
-        else:
-            study(t, args.at or WORST_DEG[t], [tuple(f) for f in args.factors or [(2, 2, 2)]], args.starts,
-                  args.surface)
+        for at in args.at or [WORST_DEG[t]]:
+            if args.branches:
+                branches(t, at)
+            else:
+                study(t, at, [tuple(f) for f in args.factors or [(2, 2, 2)]], args.starts, args.surface)
 
 
 if __name__ == "__main__":
