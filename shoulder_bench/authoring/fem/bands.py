@@ -69,11 +69,11 @@ FOOTPRINT_TENDONS = BAND_TENDONS  # the tendons whose footprint sheet is resolve
 # (listed in the table's meta, `unsolved` in its arrays); more than this fraction of the grid unsolved fails the build
 MAX_UNSOLVED = 0.01
 # Each tendon's grid step: the tasks' divided by this (1 if absent), in every coordinate or per coordinate (plane,
-# elevation, rotation). Where the held-out check on the tasks' grid missed by interpolation (band_refine.py: ssp
-# and pec1 within the bound at their worst pose on a grid twice as fine; pec3 twice as fine too, as pec1; tma's worst
-# cell at a third of the step in plane and rotation, where its arms bend, then half in elevation; dpo half in plane
-# and rotation; docs/fem.md "What each miss is", "tma", "tma: half the elevation step", "pec2 and pec3", "The deltoids")
-REFINE = {"ssp": 2, "pec1": 2, "tma": (3, 2, 3), "pec3": 2, "dpo": (2, 1, 2)}
+# elevation, rotation). Where the held-out check on the tasks' grid missed by interpolation (band_refine.py: ssp, pec1
+# and pec3 within the bound at their worst pose on a grid twice as fine; tma's worst cell at a third of the step in
+# plane and rotation, where its arms bend, then half in elevation; dpo half in plane and rotation, then in elevation;
+# docs/fem.md "What each miss is", "tma", "tma: half the elevation step", "pec2 and pec3", "The deltoids")
+REFINE = {"ssp": 2, "pec1": 2, "tma": (3, 2, 3), "pec3": 2, "dpo": 2}
 # Tendons whose band is solved as the least-energy of several equilibria (`least_energy`), with how many of
 # `probe_offsets`' six starts beside the ramp's: tmi, whose sheet (no contact surface) has two at some poses, the ramp
 # from rest landing on the higher, all six; tma and ssp, where any one start found the lower equilibrium at each
