@@ -355,6 +355,19 @@ def test_the_taut_band_is_stress_free_at_each_pose_and_needs_no_walk(pose):
         walk.solve_from(slack, alone["nodes"])
 
 
+def test_the_band_reaches_the_same_equilibrium_in_either_lu_ordering(pose, monkeypatch):
+    """The footprint sheets' Newton systems are solved in the nodes' own order (`lu_ordering`, faster for a band a
+    few nodes across): SuperLU's default column ordering takes the same steps, to rounding, on the sphere and off it."""
+    band = F.FootprintSheet("ssp", "coarse", pose=pose, rest="pose")
+    at = (0.0, 10.0, 0.0)  # pressing on its wrap sphere
+    natural = band.solve(at)
+    assert natural["contact_N"] > 0
+    monkeypatch.setattr(F._Problem, "lu_ordering", "COLAMD")
+    colamd = band.solve(at)
+    np.testing.assert_allclose(colamd["moment_arm_m"], natural["moment_arm_m"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(colamd["tension_N"], natural["tension_N"], rtol=1e-12)
+
+
 @pytest.mark.parametrize("tendon", ["ssp", "isp"])
 def test_a_narrow_taut_band_gives_back_the_mjcf_moment_arms(tendon, pose):
     """A 1 mm taut band pulls along MuJoCo's line wherever it is solved, the walked sheet's slack poses included."""

@@ -84,6 +84,10 @@ def _harmonic_weight(triangles, n, origin, insertion) -> np.ndarray:
 class MuscleProblem:
     """One muscle sheet, ready to solve at any (theta, activation)."""
 
+    # SuperLU's column ordering of the Newton systems (`spsolve`'s permc_spec): its default, COLAMD, for sheets as
+    # wide as long; a narrow band takes "NATURAL" (`footprint`; `python benchmarks/fem_lu_ordering.py`)
+    lu_ordering = "COLAMD"
+
     def __init__(self, shell: dict, material: Material | None = None, settings: SolverSettings | None = None,
                  f0: float | None = None):
         material = material or Material()
@@ -209,7 +213,7 @@ class MuscleProblem:
             for shift in (0.0, 1e-6, 1e-4, 1e-2, 1.0) if finite else ():  # Levenberg shifts (of the mean diagonal)
                 a = hff if shift == 0.0 else hff + shift * diag_scale * sp.identity(len(fd), format="csc")
                 try:
-                    p = -spla.spsolve(a, r)
+                    p = -spla.spsolve(a, r, permc_spec=self.lu_ordering)
                 except RuntimeError:
                     continue
                 if not np.all(np.isfinite(p)):
