@@ -378,7 +378,7 @@ class _Problem(MuscleProblem):
 
     # The sheets number their nodes row by row across the fibres (`grid_triangles`), so a band a few nodes across has
     # a banded tangent as numbered: SuperLU in that order takes the same steps (to rounding) and solves a band 1.2 x
-    # faster than with its default column ordering (`python benchmarks/fem_lu_ordering.py`; not the 33 x 33 sheets)
+    # faster than with its default column ordering (`python benchmarks/fem_solver_speed.py`; not the 33 x 33 sheets)
     lu_ordering = "NATURAL"
 
     def nodes_of(self, which: str) -> np.ndarray:

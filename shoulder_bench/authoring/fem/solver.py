@@ -85,7 +85,7 @@ class MuscleProblem:
     """One muscle sheet, ready to solve at any (theta, activation)."""
 
     # SuperLU's column ordering of the Newton systems (`spsolve`'s permc_spec): its default, COLAMD, for sheets as
-    # wide as long; a narrow band takes "NATURAL" (`footprint`; `python benchmarks/fem_lu_ordering.py`)
+    # wide as long; a narrow band takes "NATURAL" (`footprint`; `python benchmarks/fem_solver_speed.py`)
     lu_ordering = "COLAMD"
 
     def __init__(self, shell: dict, material: Material | None = None, settings: SolverSettings | None = None,

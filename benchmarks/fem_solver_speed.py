@@ -1,0 +1,121 @@
+"""The FEM solver's speed, side by side in one run (docs/fem.md "Newton"):
+
+    .venv/bin/python benchmarks/fem_solver_speed.py [--tendon T ...] [--poses N] [--full-tendon T] [--repeats R]
+        [--elements T ...]
+
+1. SuperLU's column ordering in the sheets' Newton solves (`MuscleProblem.lu_ordering`): COLAMD (SciPy's default, the
+   length-keyed sheets') against the natural order (the footprint sheets'). For each band tendon, N of its table's
+   grid poses (evenly spaced through the grid) solved as `fem build --bands` solves them (`bands.solve_poses`, full
+   sheets); for --full-tendon, its length-keyed sheet as `fem build --full` solves it (every length and activation of
+   its table). Each with either ordering, alternating, `--repeats` times: the best wall time of each, their ratio, and
+   the largest difference between the two orderings' results (moment arms in mm; forces in N), which is rounding if
+   the orderings take the same Newton steps.
+2. The element kernels of every tangent (`membrane.membrane_tangent`), on T elements at random strains (`--elements`:
+   480, a full footprint band; 2,048, a 33 x 33 length-keyed sheet): the material part of the element Hessians as
+   batched matrix products against the one-call einsum, and d2W/dc2 in one batched reverse pass against three
+   passes; the best of 50 calls each, their ratio and the largest difference.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+import torch
+
+from shoulder_bench.authoring.fem import bands, footprint, full
+from shoulder_bench.authoring.fem.material import Material
+from shoulder_bench.authoring.fem.membrane import ElementKernel, _energy_density
+from shoulder_bench.authoring.fem.v2 import SETTINGS, solve
+from shoulder_bench.authoring.fem.v2_sheet import SheetProblem
+
+ORDERINGS = ("COLAMD", "NATURAL")
+
+
+def timed(problem: type, ordering: str, run):
+    problem.lu_ordering = ordering
+    t0 = time.perf_counter()
+    out = run()
+    return time.perf_counter() - t0, out
+
+
+def compare(label: str, problem: type, run, difference, repeats: int) -> None:
+    best, outs, kept = {o: np.inf for o in ORDERINGS}, {}, problem.lu_ordering
+    for _ in range(repeats):
+        for o in ORDERINGS:
+            seconds, outs[o] = timed(problem, o, run)
+            best[o] = min(best[o], seconds)
+    problem.lu_ordering = kept
+    print(f"{label:<34} (in use: {kept.lower()}) COLAMD {best['COLAMD']:7.2f} s  natural {best['NATURAL']:7.2f} s  "
+          f"ratio {best['COLAMD'] / best['NATURAL']:.2f} x  largest difference {difference(*outs.values())}",
+          flush=True)
+
+
+def arms(a: dict, b: dict) -> str:
+    both = a["converged"] & b["converged"]
+    solved = f"{a['converged'].sum()}/{b['converged'].sum()} solved"
+    return f"{np.max(np.abs(a['fem_m'][both] - b['fem_m'][both])) * 1e3:.1e} mm ({solved})"
+
+
+def best_ms(run, calls: int = 50) -> float:
+    times = []
+    for _ in range(calls):
+        t0 = time.perf_counter()
+        run()
+        times.append(time.perf_counter() - t0)
+    return 1e3 * min(times)
+
+
+def kernels(t: int) -> None:
+    rng = np.random.default_rng(0)
+    dc, d2w = rng.normal(size=(t, 3, 3, 3)), rng.normal(size=(t, 3, 3))
+    c = np.stack([1.0 + 0.3 * rng.random(t), 1.0 + 0.1 * rng.normal(size=t), 0.05 * rng.normal(size=t)], axis=1)
+    kernel = ElementKernel(Material())
+
+    def einsum():
+        return np.einsum("tij,taid,tbje->tadbe", d2w, dc, dc)
+
+    def matmul():  # as membrane_tangent computes it
+        return (dc.transpose(0, 1, 3, 2).reshape(t, 9, 3) @ d2w @ dc.transpose(0, 2, 1, 3).reshape(t, 3, 9)).reshape(
+            t, 3, 3, 3, 3)
+
+    def three_passes():
+        ct = torch.from_numpy(c).requires_grad_(True)
+        (dw,) = torch.autograd.grad(_energy_density(ct, 1.0, kernel.material).sum(), ct, create_graph=True)
+        return torch.stack([torch.autograd.grad(dw[:, i].sum(), ct, retain_graph=i < 2)[0] for i in range(3)],
+                           dim=1).numpy()
+
+    for label, old, new in (("element Hessians, material part", einsum, matmul),
+                            ("d2W/dc2", three_passes, lambda: kernel.derivatives(c, 1.0)[2])):
+        a, b = best_ms(old), best_ms(new)
+        print(f"{label:<34} {t:5d} elements: before {a:6.3f} ms  now {b:6.3f} ms  ratio {a / b:5.2f} x  largest "
+              f"difference {np.max(np.abs(old() - new())):.1e}", flush=True)
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--tendon", nargs="+", choices=bands.FOOTPRINT_TENDONS, default=["ssp", "tma", "pec1", "dpo"])
+    p.add_argument("--poses", type=int, default=6, help="grid poses per band tendon (default 6)")
+    p.add_argument("--full-tendon", default="ssp", help="a length-keyed sheet of the full model (default ssp; "
+                   "'none' to skip)")
+    p.add_argument("--repeats", type=int, default=2)
+    p.add_argument("--elements", type=int, nargs="+", default=[480, 2048], help="element counts for the kernels")
+    args = p.parse_args()
+    for t in args.elements:
+        kernels(t)
+    for t in args.tendon:
+        grid = bands.grid_poses(t)
+        poses = grid[np.linspace(0, len(grid) - 1, args.poses).astype(int)]
+
+        compare(f"band {t}, {len(poses)} poses", footprint._Problem,
+                lambda t=t, poses=poses: bands.solve_poses(t, poses, "full"), arms, args.repeats)
+    if args.full_tendon != "none":
+        spec = full.specs()[args.full_tendon]
+        lengths = full.length_grids()[args.full_tendon]
+        compare(f"length-keyed {args.full_tendon}, {len(lengths)} lengths", SheetProblem,
+                lambda: solve(spec, lengths - spec.l_ts, "full", Material(), SETTINGS),
+                lambda a, b: f"{np.max(np.abs(a['force'] - b['force'])):.1e} N", args.repeats)
+
+
+if __name__ == "__main__":
+    main()
