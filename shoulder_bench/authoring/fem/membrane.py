@@ -67,7 +67,7 @@ class ElementKernel:
 
     Autodiff (torch) only sees the 3 components of C per element: one reverse pass for dW/dc and one batched one for
     the 3x3 d2W/dc2. The chain rule to node positions (C = F^T F, F = sum_a x_a B_a) is done by hand below; it is
-    exact and costs a few einsums.
+    exact and costs a few einsums and batched matrix products.
     """
 
     def __init__(self, material: Material):
@@ -137,7 +137,7 @@ def membrane_tangent(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activa
     vol = mem.area * mem.thickness
     dc, ge = _element_gradient(b, f1, f2, dw, vol)
     # material part: sum_ij W_ij dc_i/dx_a (dc_j/dx_b)^T, as batched (9 x 3)(3 x 3)(3 x 9) matrix products (the
-    # one-call einsum "tij,taid,tbje->tadbe" is the same to rounding and ~10 x slower)
+    # one-call einsum "tij,taid,tbje->tadbe" is the same to rounding and ~25 x slower: benchmarks/fem_solver_speed.py)
     t = len(dc)
     h_mat = (dc.transpose(0, 1, 3, 2).reshape(t, 9, 3) @ d2w @ dc.transpose(0, 2, 1, 3).reshape(t, 3, 9)).reshape(
         t, 3, 3, 3, 3)
