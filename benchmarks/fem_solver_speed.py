@@ -22,6 +22,7 @@ import time
 
 import numpy as np
 import torch
+from reset_speed import best_ms  # this folder's: the best of repeated calls, ms
 
 from shoulder_bench.authoring.fem import bands, footprint, full
 from shoulder_bench.authoring.fem.material import Material
@@ -57,15 +58,6 @@ def arms(a: dict, b: dict) -> str:
     return f"{np.max(np.abs(a['fem_m'][both] - b['fem_m'][both])) * 1e3:.1e} mm ({solved})"
 
 
-def best_ms(run, calls: int = 50) -> float:
-    times = []
-    for _ in range(calls):
-        t0 = time.perf_counter()
-        run()
-        times.append(time.perf_counter() - t0)
-    return 1e3 * min(times)
-
-
 def kernels(t: int) -> None:
     rng = np.random.default_rng(0)
     dc, d2w = rng.normal(size=(t, 3, 3, 3)), rng.normal(size=(t, 3, 3))
@@ -87,7 +79,7 @@ def kernels(t: int) -> None:
 
     for label, old, new in (("element Hessians, material part", einsum, matmul),
                             ("d2W/dc2", three_passes, lambda: kernel.derivatives(c, 1.0)[2])):
-        a, b = best_ms(old), best_ms(new)
+        a, b = best_ms(old, 50), best_ms(new, 50)
         print(f"{label:<34} {t:5d} elements: before {a:6.3f} ms  now {b:6.3f} ms  ratio {a / b:5.2f} x  largest "
               f"difference {np.max(np.abs(old() - new())):.1e}", flush=True)
 
