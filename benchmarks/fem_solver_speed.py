@@ -88,11 +88,13 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--tendon", nargs="+", choices=bands.FOOTPRINT_TENDONS, default=["ssp", "tma", "pec1", "dpo"])
     p.add_argument("--poses", type=int, default=6, help="grid poses per band tendon (default 6)")
-    p.add_argument("--full-tendon", default="ssp", help="a length-keyed sheet of the full model (default ssp; "
-                   "'none' to skip)")
+    p.add_argument("--full-tendon", default="ssp", choices=[*full.specs(), "none"],
+                   help="a length-keyed sheet of the full model (default ssp; 'none' to skip)")
     p.add_argument("--repeats", type=int, default=2)
     p.add_argument("--elements", type=int, nargs="+", default=[480, 2048], help="element counts for the kernels")
     args = p.parse_args()
+    if min(args.poses, args.repeats, *args.elements) < 1:
+        p.error("--poses, --repeats and --elements take positive counts")
     for t in args.elements:
         kernels(t)
     for t in args.tendon:
