@@ -26,7 +26,7 @@ from reset_speed import best_ms  # this folder's: the best of repeated calls, ms
 
 from shoulder_bench.authoring.fem import bands, footprint, full
 from shoulder_bench.authoring.fem.material import Material
-from shoulder_bench.authoring.fem.membrane import ElementKernel, _energy_density
+from shoulder_bench.authoring.fem.membrane import ElementKernel, _energy_density, _material_blocks
 from shoulder_bench.authoring.fem.v2 import SETTINGS, solve
 from shoulder_bench.authoring.fem.v2_sheet import SheetProblem
 
@@ -67,17 +67,13 @@ def kernels(t: int) -> None:
     def einsum():
         return np.einsum("tij,taid,tbje->tadbe", d2w, dc, dc)
 
-    def matmul():  # as membrane_tangent computes it
-        return (dc.transpose(0, 1, 3, 2).reshape(t, 9, 3) @ d2w @ dc.transpose(0, 2, 1, 3).reshape(t, 3, 9)).reshape(
-            t, 3, 3, 3, 3)
-
     def three_passes():
         ct = torch.from_numpy(c).requires_grad_(True)
         (dw,) = torch.autograd.grad(_energy_density(ct, 1.0, kernel.material).sum(), ct, create_graph=True)
         return torch.stack([torch.autograd.grad(dw[:, i].sum(), ct, retain_graph=i < 2)[0] for i in range(3)],
                            dim=1).numpy()
 
-    for label, old, new in (("element Hessians, material part", einsum, matmul),
+    for label, old, new in (("element Hessians, material part", einsum, lambda: _material_blocks(d2w, dc)),
                             ("d2W/dc2", three_passes, lambda: kernel.derivatives(c, 1.0)[2])):
         a, b = best_ms(old, 50), best_ms(new, 50)
         print(f"{label:<34} {t:5d} elements: before {a:6.3f} ms  now {b:6.3f} ms  ratio {a / b:5.2f} x  largest "
@@ -100,7 +96,6 @@ def main() -> None:
     for t in args.tendon:
         grid = bands.grid_poses(t)
         poses = grid[np.linspace(0, len(grid) - 1, args.poses).astype(int)]
-
         compare(f"band {t}, {len(poses)} poses", footprint._Problem,
                 lambda t=t, poses=poses: bands.solve_poses(t, poses, "full"), arms, args.repeats)
     if args.full_tendon != "none":

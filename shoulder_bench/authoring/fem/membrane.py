@@ -130,17 +130,22 @@ def _dofs(mem: Membrane) -> np.ndarray:
     return (3 * mem.triangles[:, :, None] + np.arange(3)).reshape(-1, 9)  # (T, 9)
 
 
+def _material_blocks(d2w: np.ndarray, dc: np.ndarray) -> np.ndarray:
+    """The material part of the element Hessians, sum_ij W_ij dc_i/dx_a (dc_j/dx_b)^T, (T, 3, 3, 3, 3), as batched
+    (9 x 3)(3 x 3)(3 x 9) matrix products (the one-call einsum "tij,taid,tbje->tadbe" is the same to rounding and ~25 x
+    slower: benchmarks/fem_solver_speed.py)."""
+    t = len(dc)
+    return (dc.transpose(0, 1, 3, 2).reshape(t, 9, 3) @ d2w @ dc.transpose(0, 2, 1, 3).reshape(t, 3, 9)).reshape(
+        t, 3, 3, 3, 3)
+
+
 def membrane_tangent(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float):
     """(energy, gradient (3N,), sparse Hessian (3N x 3N) CSR)."""
     b, f1, f2, c = membrane_kinematics(mem, x)
     w, dw, d2w = kernel.derivatives(c, activation)
     vol = mem.area * mem.thickness
     dc, ge = _element_gradient(b, f1, f2, dw, vol)
-    # material part: sum_ij W_ij dc_i/dx_a (dc_j/dx_b)^T, as batched (9 x 3)(3 x 3)(3 x 9) matrix products (the
-    # one-call einsum "tij,taid,tbje->tadbe" is the same to rounding and ~25 x slower: benchmarks/fem_solver_speed.py)
-    t = len(dc)
-    h_mat = (dc.transpose(0, 1, 3, 2).reshape(t, 9, 3) @ d2w @ dc.transpose(0, 2, 1, 3).reshape(t, 3, 9)).reshape(
-        t, 3, 3, 3, 3)
+    h_mat = _material_blocks(d2w, dc)
     # geometric part: sum_i W_i d2c_i/dx_a dx_b (a multiple of the 3x3 identity)
     s = (2.0 * dw[:, 0, None, None] * b[:, :, None, 0] * b[:, None, :, 0]
          + 2.0 * dw[:, 1, None, None] * b[:, :, None, 1] * b[:, None, :, 1]
