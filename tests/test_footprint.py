@@ -357,7 +357,8 @@ def test_the_taut_band_is_stress_free_at_each_pose_and_needs_no_walk(pose):
 
 def test_the_band_reaches_the_same_equilibrium_in_either_lu_ordering(pose, monkeypatch):
     """The footprint sheets' Newton systems are solved in the nodes' own order (`lu_ordering`, faster for a band a
-    few nodes across): SuperLU's default column ordering takes the same steps, to rounding, on the sphere and off it."""
+    few nodes across): SuperLU's default column ordering takes the same steps, to rounding, with the band pressing on
+    its wrap sphere (contact blocks in the tangent)."""
     band = F.FootprintSheet("ssp", "coarse", pose=pose, rest="pose")
     at = (0.0, 10.0, 0.0)  # pressing on its wrap sphere
     natural = band.solve(at)
