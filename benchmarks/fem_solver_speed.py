@@ -1,7 +1,7 @@
 """The FEM solver's speed, side by side in one run (docs/fem.md "Newton"):
 
     .venv/bin/python benchmarks/fem_solver_speed.py [--tendon T ...] [--poses N] [--full-tendon T] [--repeats R]
-        [--elements T ...]
+        [--elements T ...] [--kernels]
 
 1. SuperLU's column ordering in the sheets' Newton solves (`MuscleProblem.lu_ordering`): COLAMD (SciPy's default, the
    length-keyed sheets') against the natural order (the footprint sheets'). For each band tendon, N of its table's
@@ -12,8 +12,13 @@
    the orderings take the same Newton steps.
 2. The element kernels of every tangent (`membrane.membrane_tangent`), on T elements at random strains (`--elements`:
    480, a full footprint band; 2,048, a 33 x 33 length-keyed sheet): the material part of the element Hessians as
-   batched matrix products against the one-call einsum, and d2W/dc2 in one batched reverse pass against three
-   passes; the best of 50 calls each, their ratio and the largest difference.
+   batched matrix products against the one-call einsum, d2W/dc2 by autograd in one batched reverse pass against
+   three passes, and the energy's derivatives in closed form (`ElementKernel`) against autograd
+   (`membrane.autograd_derivatives`); the best of 50 calls each, their ratio and the largest difference.
+3. The same in whole solves (`--kernels`): each band tendon's N grid poses solved with the closed-form kernel and with
+   autograd swapped in, alternating, `--repeats` times: best wall times, ratio, and the largest difference of the
+   results (the tangents differ by rounding, so Newton's iterates part within the solver's tolerance, not to
+   rounding).
 """
 from __future__ import annotations
 
@@ -26,30 +31,59 @@ from reset_speed import best_ms  # this folder's: the best of repeated calls, ms
 
 from shoulder_bench.authoring.fem import bands, footprint, full
 from shoulder_bench.authoring.fem.material import Material
-from shoulder_bench.authoring.fem.membrane import ElementKernel, _energy_density, _material_blocks
+from shoulder_bench.authoring.fem.membrane import (
+    ElementKernel,
+    _material_blocks,
+    autograd_derivatives,
+    energy_density,
+)
 from shoulder_bench.authoring.fem.v2 import SETTINGS, solve
 from shoulder_bench.authoring.fem.v2_sheet import SheetProblem
 
 ORDERINGS = ("COLAMD", "NATURAL")
 
 
-def timed(problem: type, ordering: str, run):
-    problem.lu_ordering = ordering
+def timed(run):
     t0 = time.perf_counter()
     out = run()
     return time.perf_counter() - t0, out
 
 
-def compare(label: str, problem: type, run, difference, repeats: int) -> None:
-    best, outs, kept = {o: np.inf for o in ORDERINGS}, {}, problem.lu_ordering
+def side_by_side(label: str, variants: dict, run, difference, repeats: int) -> None:
+    """`run` under each of two variants (name -> a function that sets it up), alternating `repeats` times: the best
+    wall time of each, their ratio (the first's over the second's) and the largest difference of the results."""
+    best, outs = {v: np.inf for v in variants}, {}
     for _ in range(repeats):
-        for o in ORDERINGS:
-            seconds, outs[o] = timed(problem, o, run)
-            best[o] = min(best[o], seconds)
+        for name, setup in variants.items():
+            setup()
+            seconds, outs[name] = timed(run)
+            best[name] = min(best[name], seconds)
+    a, b = variants
+    print(f"{label:<34} {a} {best[a]:7.2f} s  {b} {best[b]:7.2f} s  ratio {best[a] / best[b]:.2f} x  largest "
+          f"difference {difference(*outs.values())}", flush=True)
+
+
+def compare(label: str, problem: type, run, difference, repeats: int) -> None:
+    kept = problem.lu_ordering
+    variants = {o: (lambda o=o: setattr(problem, "lu_ordering", o)) for o in ORDERINGS}
+    side_by_side(f"{label} (in use: {kept.lower()})", variants, run, difference, repeats)
     problem.lu_ordering = kept
-    print(f"{label:<34} (in use: {kept.lower()}) COLAMD {best['COLAMD']:7.2f} s  natural {best['NATURAL']:7.2f} s  "
-          f"ratio {best['COLAMD'] / best['NATURAL']:.2f} x  largest difference {difference(*outs.values())}",
-          flush=True)
+
+
+def closed_form_or_autograd(label: str, run, difference, repeats: int) -> None:
+    """`run` with the closed-form kernel and with autograd in its place (ElementKernel.derivatives swapped)."""
+    closed = ElementKernel.derivatives
+
+    def autograd(self, c, activation, second=True):
+        w, dw, d2w = autograd_derivatives(c, activation, self.material)
+        return w, dw, d2w if second else None
+
+    variants = {"autograd": lambda: setattr(ElementKernel, "derivatives", autograd),
+                "closed form": lambda: setattr(ElementKernel, "derivatives", closed)}
+    try:
+        side_by_side(label, variants, run, difference, repeats)
+    finally:
+        ElementKernel.derivatives = closed
 
 
 def arms(a: dict, b: dict) -> str:
@@ -69,12 +103,14 @@ def kernels(t: int) -> None:
 
     def three_passes():
         ct = torch.from_numpy(c).requires_grad_(True)
-        (dw,) = torch.autograd.grad(_energy_density(ct, 1.0, kernel.material).sum(), ct, create_graph=True)
+        (dw,) = torch.autograd.grad(energy_density(ct, 1.0, kernel.material).sum(), ct, create_graph=True)
         return torch.stack([torch.autograd.grad(dw[:, i].sum(), ct, retain_graph=i < 2)[0] for i in range(3)],
                            dim=1).numpy()
 
+    autograd = {2: lambda: autograd_derivatives(c, 1.0, kernel.material)[2]}
     for label, old, new in (("element Hessians, material part", einsum, lambda: _material_blocks(d2w, dc)),
-                            ("d2W/dc2", three_passes, lambda: kernel.derivatives(c, 1.0)[2])):
+                            ("d2W/dc2 by autograd", three_passes, lambda: autograd[2]()),
+                            ("d2W/dc2 in closed form", lambda: autograd[2](), lambda: kernel.derivatives(c, 1.0)[2])):
         a, b = best_ms(old, 50), best_ms(new, 50)
         print(f"{label:<34} {t:5d} elements: before {a:6.3f} ms  now {b:6.3f} ms  ratio {a / b:5.2f} x  largest "
               f"difference {np.max(np.abs(old() - new())):.1e}", flush=True)
@@ -88,6 +124,8 @@ def main() -> None:
                    help="a length-keyed sheet of the full model (default ssp; 'none' to skip)")
     p.add_argument("--repeats", type=int, default=2)
     p.add_argument("--elements", type=int, nargs="+", default=[480, 2048], help="element counts for the kernels")
+    p.add_argument("--kernels", action="store_true",
+                   help="whole solves with the closed-form kernel against autograd (3.) instead of the orderings (1.)")
     args = p.parse_args()
     if min(args.poses, args.repeats, *args.elements) < 1:
         p.error("--poses, --repeats and --elements take positive counts")
@@ -96,14 +134,21 @@ def main() -> None:
     for t in args.tendon:
         grid = bands.grid_poses(t)
         poses = grid[np.linspace(0, len(grid) - 1, args.poses).astype(int)]
-        compare(f"band {t}, {len(poses)} poses", footprint._Problem,
-                lambda t=t, poses=poses: bands.solve_poses(t, poses, "full"), arms, args.repeats)
+        run = lambda t=t, poses=poses: bands.solve_poses(t, poses, "full")  # noqa: E731
+        if args.kernels:
+            closed_form_or_autograd(f"band {t}, {len(poses)} poses", run, arms, args.repeats)
+        else:
+            compare(f"band {t}, {len(poses)} poses", footprint._Problem, run, arms, args.repeats)
     if args.full_tendon != "none":
         spec = full.specs()[args.full_tendon]
         lengths = full.length_grids()[args.full_tendon]
-        compare(f"length-keyed {args.full_tendon}, {len(lengths)} lengths", SheetProblem,
-                lambda: solve(spec, lengths - spec.l_ts, "full", Material(), SETTINGS),
-                lambda a, b: f"{np.max(np.abs(a['force'] - b['force'])):.1e} N", args.repeats)
+        label = f"length-keyed {args.full_tendon}, {len(lengths)} lengths"
+        run = lambda: solve(spec, lengths - spec.l_ts, "full", Material(), SETTINGS)  # noqa: E731
+        forces = lambda a, b: f"{np.max(np.abs(a['force'] - b['force'])):.1e} N"  # noqa: E731
+        if args.kernels:
+            closed_form_or_autograd(label, run, forces, args.repeats)
+        else:
+            compare(label, SheetProblem, run, forces, args.repeats)
 
 
 if __name__ == "__main__":

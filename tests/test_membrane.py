@@ -1,5 +1,6 @@
 """The membrane's nodal forces and tangent are the derivatives of its energy (shoulder_bench/authoring/fem/membrane.py):
-central finite differences on a small fibre sheet, stretched taut and sheared, at full and no activation."""
+central finite differences on a small fibre sheet, stretched taut and sheared, at full and no activation; and the
+element kernel's closed-form derivatives against torch autograd of the same energy density."""
 from __future__ import annotations
 
 import numpy as np
@@ -9,6 +10,7 @@ from shoulder_bench.authoring.fem.material import Material
 from shoulder_bench.authoring.fem.membrane import (
     ElementKernel,
     Membrane,
+    autograd_derivatives,
     membrane_energy,
     membrane_forces,
     membrane_tangent,
@@ -51,3 +53,33 @@ def test_forces_and_tangent_are_the_energys_derivatives(activation):
     np.testing.assert_allclose(g, fd_g, atol=1e-5 * scale_g)
     np.testing.assert_allclose(h.toarray(), fd_h, atol=1e-5 * scale_h)
     np.testing.assert_allclose(h.toarray(), h.toarray().T, atol=1e-9 * scale_h)  # a Hessian is symmetric
+
+
+@pytest.mark.parametrize("activation", [1.0, 0.4, 0.0])
+def test_closed_form_derivatives_match_autograd_on_every_branch(activation):
+    """The kernel's closed-form dW/dc and d2W/dc2 against torch autograd of the same energy, at right Cauchy-Green
+    tensors of random plane deformations: taut, wrinkled and slack background, the fibre on every piece of the passive
+    and active curves."""
+    rng = np.random.default_rng(1)
+    f = np.eye(2) + 0.6 * rng.normal(size=(20000, 2, 2)) * rng.random((20000, 1, 1))
+    cg = np.einsum("tki,tkj->tij", f, f)
+    c = np.stack([cg[:, 0, 0], cg[:, 1, 1], cg[:, 0, 1]], axis=1)
+    c = c[c[:, 0] * c[:, 1] - c[:, 2] ** 2 > 1e-3]
+    material = Material()
+    b, lh = material.background, np.sqrt(c[:, 0]) / material.fibre.lambda_ofl
+    tr, s = c[:, 0] + c[:, 1], np.sqrt(c[:, 0] * c[:, 1] - c[:, 2] ** 2)
+    u, r = np.sqrt(tr + 2 * s), np.sqrt(np.maximum(tr - 2 * s, 0.0))
+    e1, e2 = 0.5 * (u + r) - 1.0, 0.5 * (u - r) - 1.0
+    taut = e2 >= -b.poisson_ratio * e1
+    for branch in (taut, ~taut & (e1 > 0), ~taut & (e1 <= 0), lh < 0.4, (lh > 0.6) & (lh < 1.0),
+                   (lh > 1.0) & (lh < 1.4), (lh > 1.4) & (lh < 1.6), lh > 1.6):
+        assert branch.sum() > 100
+    w0, g0, h0 = autograd_derivatives(c, activation, material)
+    w1, g1, h1 = ElementKernel(material).derivatives(c, activation)
+    np.testing.assert_allclose(w1, w0, rtol=1e-12, atol=1e-12 * np.abs(w0).max())
+    # per element, against its largest entry; second derivatives lose digits to cancellation where C is nearly
+    # isotropic, both ways
+    assert np.max(np.abs(g1 - g0) / (np.abs(g0).max(axis=1, keepdims=True) + 1e-9)) < 1e-11
+    assert np.max(np.abs(h1 - h0) / (np.abs(h0).max(axis=(1, 2), keepdims=True) + 1e-9)) < 1e-7
+    _, g2, none = ElementKernel(material).derivatives(c, activation, second=False)
+    assert none is None and np.array_equal(g2, g1)

@@ -1,12 +1,14 @@
 """Muscle material: Blemker 2005 fibre law in a linear co-rotational plane-stress background.
 
 Everything is written as a strain-energy density per *reference* volume so that one energy gives forces and tangent
-(autodiff) and a line search can compare energies. The fibre term's derivative dW/dlambda = sigma_max f / lambda_ofl is
+(its derivatives, in closed form at the end of this file, held to autograd of the energy) and a line search can compare
+energies. The fibre term's derivative dW/dlambda = sigma_max f / lambda_ofl is
 the *nominal* fibre stress (force per undeformed area), i.e. Blemker's Cauchy stress sigma_max * f * lambda / lambda_ofl
 for an incompressible sheet; taking sigma_max * f as the Cauchy stress makes the fibre force fall with stretch from
 lambda = 1 and Newton fails (../shared/reference/shoulder_parameters.md).
 
-Functions accept numpy arrays or torch tensors (they use only `where`, `exp` and min/max arithmetic).
+The energies accept numpy arrays or torch tensors (they use only `where`, `exp` and min/max arithmetic); the
+derivatives numpy arrays.
 """
 from __future__ import annotations
 
@@ -152,3 +154,52 @@ def background_energy(tr_c, det_c, b: Background = Background(), relaxed: bool =
     nu = b.poisson_ratio
     wrinkled = 0.5 * b.youngs_modulus * e1**2
     return xp.where(e2 >= -nu * e1, taut, xp.where(e1 > 0.0, wrinkled, 0.0 * e1))
+
+
+# -- closed-form derivatives (numpy), for the Newton solves (fem.membrane.ElementKernel) -------------------------------
+# The same functions as the energies above, differentiated by hand: torch autograd of the energies took 42 % of a band
+# solve (docs/fem.md "Newton"); tests/test_membrane.py holds these to autograd of the energies, on every branch.
+
+
+def fibre_derivatives(lam: np.ndarray, activation: float, c: Blemker = Blemker()):
+    """`fibre_energy` and its first and second derivatives in lambda: (W, W', W'')."""
+    lh = lam / c.lambda_ofl
+    ls = c.lambda_star / c.lambda_ofl
+    passive = np.where(lh <= 1.0, 0.0, np.where(lh <= ls, c.p1 * c.p2 * np.exp(c.p2 * (np.minimum(lh, ls) - 1.0)),
+                                                  c.p3))
+    active = np.where((lh < 0.4) | (lh > 1.6), 0.0,
+                      np.where(lh <= 0.6, 18.0 * (lh - 0.4), np.where(lh < 1.4, 8.0 * (1.0 - lh), 18.0 * (lh - 1.6))))
+    slope = c.sigma_max * (passive + activation * active) / c.lambda_ofl**2
+    return fibre_energy(lam, activation, c), nominal_fibre_stress(lam, activation, c), slope
+
+
+def background_derivatives(tr_c: np.ndarray, det_c: np.ndarray, b: Background = Background()):
+    """`background_energy` (relaxed) and its derivatives in (tr C, det C): (W, W_t, W_d, W_tt, W_td, W_dd).
+
+    Through s = sqrt(det C) and tr U = u = sqrt(tr C + 2 s); the wrinkled piece through e1 = (u + r) / 2 - 1 with
+    r = sqrt(u^2 - 4 s) = sqrt(tr C - 2 s), the difference of the principal stretches. Each piece where it applies."""
+    s = np.sqrt(det_c)
+    u = np.sqrt(tr_c + 2.0 * s)
+    root = _safe_sqrt(u**2 - 4.0 * s, np)
+    e1, e2 = 0.5 * (u + root) - 1.0, 0.5 * (u - root) - 1.0
+    taut = e2 >= -b.poisson_ratio * e1
+    wrinkled = ~taut & (e1 > 0.0)
+    # derivatives of u in (tr, s)
+    u_t, u_s, u_tt, u_ts, u_ss = 0.5 / u, 1.0 / u, -0.25 / u**3, -0.5 / u**3, -1.0 / u**3
+    # taut: W = mu (tr - 2 u + 2) + lam/2 (u - 2)^2
+    w_u = -2.0 * b.mu + b.lam * (u - 2.0)
+    taut_w = b.mu * (tr_c - 2.0 * u + 2.0) + 0.5 * b.lam * (u - 2.0) ** 2
+    taut_d = (b.mu + w_u * u_t, w_u * u_s,
+              b.lam * u_t**2 + w_u * u_tt, b.lam * u_t * u_s + w_u * u_ts, b.lam * u_s**2 + w_u * u_ss)
+    # wrinkled: W = E/2 e1^2
+    r = np.where(wrinkled, root, 1.0)
+    e_t, e_s = 0.5 * (u_t + 0.5 / r), 0.5 * (u_s - 1.0 / r)
+    e_tt, e_ts, e_ss = 0.5 * (u_tt - 0.25 / r**3), 0.5 * (u_ts + 0.5 / r**3), 0.5 * (u_ss - 1.0 / r**3)
+    y = b.youngs_modulus
+    wr_w = 0.5 * y * e1**2
+    wr_d = (y * e1 * e_t, y * e1 * e_s, y * (e_t**2 + e1 * e_tt), y * (e_t * e_s + e1 * e_ts), y * (e_s**2 + e1 * e_ss))
+    w = np.where(taut, taut_w, np.where(wrinkled, wr_w, 0.0))
+    g_t, g_s, h_tt, h_ts, h_ss = (np.where(taut, a, np.where(wrinkled, q, 0.0)) for a, q in zip(taut_d, wr_d))
+    # (tr, s) -> (tr, det): s_d = 1 / (2 s), s_dd = -1 / (4 s^3)
+    s_d, s_dd = 0.5 / s, -0.25 / s**3
+    return w, g_t, g_s * s_d, h_tt, h_ts * s_d, h_ss * s_d**2 + g_s * s_dd

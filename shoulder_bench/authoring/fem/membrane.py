@@ -6,10 +6,12 @@ stretch is lambda = |F e1| = sqrt(C11) and the element energy is
 
     E_e = A_e h_e [ W_background(C) + W_fibre(lambda, a) ]     (A_e reference area, h_e reference thickness)
 
-The energy density is written once as a function of C = (C11, C22, C12); torch autograd gives its first and second
-derivatives in c (the relaxed co-rotational tangent, with its eigenvalue branches, is error-prone by hand), and the
-chain rule to node positions, which only involves the linear maps F = sum_a x_a B_a and C = F^T F, is written out
-in numpy. The 9x9 element blocks are assembled into a scipy.sparse matrix.
+The energy density is written once as a function of C = (C11, C22, C12) (`material`); its first and second
+derivatives in c are written out in closed form (`material.fibre_derivatives`, `material.background_derivatives`,
+chained to c here) and held to torch autograd of the energy, branch by branch (`autograd_derivatives`,
+tests/test_membrane.py): autograd itself took 42 % of a band solve. The chain rule to node positions, which only
+involves the linear maps F = sum_a x_a B_a and C = F^T F, is written out in numpy. The 9x9 element blocks are
+assembled into a scipy.sparse matrix.
 """
 from __future__ import annotations
 
@@ -19,7 +21,13 @@ import numpy as np
 import scipy.sparse as sp
 import torch
 
-from shoulder_bench.authoring.fem.material import Material, background_energy, fibre_energy
+from shoulder_bench.authoring.fem.material import (
+    Material,
+    background_derivatives,
+    background_energy,
+    fibre_derivatives,
+    fibre_energy,
+)
 
 
 @dataclass
@@ -54,39 +62,63 @@ class Membrane:
         return len(self.nodes)
 
 
-def _energy_density(c: torch.Tensor, activation: float, material: Material) -> torch.Tensor:
-    """Energy per reference volume from c = (C11, C22, C12) per element (T, 3); C11 is along the fibre."""
+def energy_density(c, activation: float, material: Material):
+    """Energy per reference volume from c = (C11, C22, C12) per element (T, 3), numpy or torch; C11 is along the
+    fibre."""
+    lib = torch if isinstance(c, torch.Tensor) else np
     tr_c = c[:, 0] + c[:, 1]
     det_c = c[:, 0] * c[:, 1] - c[:, 2] ** 2
-    lam = torch.sqrt(c[:, 0])
-    return background_energy(tr_c, det_c, material.background) + fibre_energy(lam, activation, material.fibre)
+    return background_energy(tr_c, det_c, material.background) + fibre_energy(lib.sqrt(c[:, 0]), activation,
+                                                                              material.fibre)
+
+
+def autograd_derivatives(c: np.ndarray, activation: float, material: Material):
+    """(W, dW/dc, d2W/dc2) by torch autograd of `energy_density`: the reference `ElementKernel`'s closed form is held
+    to (tests/test_membrane.py) and timed against (benchmarks/fem_solver_speed.py)."""
+    ct = torch.from_numpy(c).requires_grad_(True)
+    w = energy_density(ct, activation, material)
+    (dw,) = torch.autograd.grad(w.sum(), ct, create_graph=True)
+    rows = torch.eye(3, dtype=ct.dtype)[:, None, :].expand(3, *ct.shape)  # the three rows in one batched pass
+    (d2w,) = torch.autograd.grad(dw, ct, grad_outputs=rows, is_grads_batched=True)
+    return w.detach().numpy(), dw.detach().numpy(), d2w.permute(1, 0, 2).numpy()
+
+
+_D2_DET = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -2.0]])  # d2(det C)/dc2
 
 
 class ElementKernel:
-    """Energy density W(C11, C22, C12) and its first and second derivatives, batched over elements.
-
-    Autodiff (torch) only sees the 3 components of C per element: one reverse pass for dW/dc and one batched one for
-    the 3x3 d2W/dc2. The chain rule to node positions (C = F^T F, F = sum_a x_a B_a) is done by hand below; it is
-    exact and costs a few einsums and batched matrix products.
-    """
+    """Energy density W(C11, C22, C12) and its first and second derivatives, batched over elements, in closed form:
+    W = W_background(tr C, det C) + W_fibre(sqrt(C11)), each piece's derivatives from `material`, chained through
+    d tr/dc = (1, 1, 0), d det/dc = (C22, C11, -2 C12) and d2 det/dc2 (`_D2_DET`). The chain rule to node positions
+    (C = F^T F, F = sum_a x_a B_a) is done by hand below."""
 
     def __init__(self, material: Material):
         self.material = material
 
     def energy(self, c: np.ndarray, activation: float) -> np.ndarray:
-        with torch.no_grad():
-            return _energy_density(torch.from_numpy(c), activation, self.material).numpy()
+        with np.errstate(invalid="ignore", divide="ignore"):  # a collapsed element: NaN, as autograd gave
+            return energy_density(c, activation, self.material)
 
     def derivatives(self, c: np.ndarray, activation: float, second: bool = True):
-        ct = torch.from_numpy(c).requires_grad_(True)
-        w = _energy_density(ct, activation, self.material)
-        (dw,) = torch.autograd.grad(w.sum(), ct, create_graph=second)
+        with np.errstate(invalid="ignore", divide="ignore"):  # a collapsed element (a line search's trial point):
+            return self._derivatives(c, activation, second)  # NaN, never accepted (solver._line_search)
+
+    def _derivatives(self, c: np.ndarray, activation: float, second: bool):
+        c0, c1, c2 = c[:, 0], c[:, 1], c[:, 2]
+        w, w_t, w_d, w_tt, w_td, w_dd = background_derivatives(c0 + c1, c0 * c1 - c2**2, self.material.background)
+        lam = np.sqrt(c0)
+        w_f, f1, f2 = fibre_derivatives(lam, activation, self.material.fibre)
+        t = np.array([1.0, 1.0, 0.0])
+        d = np.stack([c1, c0, -2.0 * c2], axis=1)
+        dw = w_t[:, None] * t + w_d[:, None] * d
+        dw[:, 0] += 0.5 * f1 / lam
         if not second:
-            return w.detach().numpy(), dw.detach().numpy(), None
-        # the three rows of d2W/dc2 in one batched reverse pass (the same numbers as three passes)
-        rows = torch.eye(3, dtype=ct.dtype)[:, None, :].expand(3, *ct.shape)
-        (d2w,) = torch.autograd.grad(dw, ct, grad_outputs=rows, is_grads_batched=True)
-        return w.detach().numpy(), dw.detach().numpy(), d2w.permute(1, 0, 2).numpy()
+            return w + w_f, dw, None
+        td = t[None, :, None] * d[:, None, :]
+        d2w = (w_tt[:, None, None] * np.outer(t, t) + w_td[:, None, None] * (td + td.transpose(0, 2, 1))
+               + w_dd[:, None, None] * d[:, :, None] * d[:, None, :] + w_d[:, None, None] * _D2_DET)
+        d2w[:, 0, 0] += 0.25 * (f2 - f1 / lam) / lam**2
+        return w + w_f, dw, d2w
 
 
 def _shape_gradients(mem: Membrane) -> np.ndarray:
