@@ -1,15 +1,16 @@
 """The FEM solver's speed, side by side in one run (docs/fem.md "Newton"):
 
     .venv/bin/python benchmarks/fem_solver_speed.py [--tendon T ...] [--poses N] [--full-tendon T] [--repeats R]
-        [--elements T ...] [--kernels]
+        [--elements T ...] [--kernels] [--layouts A B]
 
-1. SuperLU's column ordering in the sheets' Newton solves (`MuscleProblem.lu_ordering`): COLAMD (SciPy's default, the
-   length-keyed sheets') against the natural order (the footprint sheets'). For each band tendon, N of its table's
+1. How the sheets' Newton systems are factorised (`MuscleProblem.layout`, `assembly.LAYOUTS`; `--layouts A B`,
+   default COLAMD NATURAL): SuperLU with COLAMD (SciPy's default, the length-keyed sheets') or the natural order, or
+   LAPACK's banded LU (BANDED, the footprint sheets'). For each band tendon, N of its table's
    grid poses (evenly spaced through the grid) solved as `fem build --bands` solves them (`bands.solve_poses`, full
    sheets); for --full-tendon, its length-keyed sheet as `fem build --full` solves it (every length and activation of
-   its table). Each with either ordering, alternating, `--repeats` times: the best wall time of each, their ratio, and
-   the largest difference between the two orderings' results (moment arms in mm; forces in N), which is rounding if
-   the orderings take the same Newton steps.
+   its table). Each with either layout, alternating, `--repeats` times: the best wall time of each, their ratio, and
+   the largest difference between the two layouts' results (moment arms in mm; forces in N), which is rounding if
+   the layouts take the same Newton steps.
 2. The element kernels of every tangent (`membrane.membrane_tangent`), on T elements at random strains (`--elements`:
    480, a full footprint band; 2,048, a 33 x 33 length-keyed sheet): the material part of the element Hessians as
    batched matrix products against the one-call einsum, d2W/dc2 by autograd in one batched reverse pass against
@@ -30,6 +31,7 @@ import torch
 from reset_speed import best_ms  # this folder's: the best of repeated calls, ms
 
 from shoulder_bench.authoring.fem import bands, footprint, full
+from shoulder_bench.authoring.fem.assembly import LAYOUTS
 from shoulder_bench.authoring.fem.material import Material
 from shoulder_bench.authoring.fem.membrane import (
     ElementKernel,
@@ -39,8 +41,6 @@ from shoulder_bench.authoring.fem.membrane import (
 )
 from shoulder_bench.authoring.fem.v2 import SETTINGS, solve
 from shoulder_bench.authoring.fem.v2_sheet import SheetProblem
-
-ORDERINGS = ("COLAMD", "NATURAL")
 
 
 def timed(run):
@@ -63,11 +63,11 @@ def side_by_side(label: str, variants: dict, run, difference, repeats: int) -> N
           f"difference {difference(*outs.values())}", flush=True)
 
 
-def compare(label: str, problem: type, run, difference, repeats: int) -> None:
-    kept = problem.lu_ordering
-    variants = {o: (lambda o=o: setattr(problem, "lu_ordering", o)) for o in ORDERINGS}
+def compare(label: str, problem: type, run, difference, repeats: int, layouts) -> None:
+    kept = problem.layout
+    variants = {o: (lambda o=o: setattr(problem, "layout", o)) for o in layouts}
     side_by_side(f"{label} (in use: {kept.lower()})", variants, run, difference, repeats)
-    problem.lu_ordering = kept
+    problem.layout = kept
 
 
 def closed_form_or_autograd(label: str, run, difference, repeats: int) -> None:
@@ -125,7 +125,9 @@ def main() -> None:
     p.add_argument("--repeats", type=int, default=2)
     p.add_argument("--elements", type=int, nargs="+", default=[480, 2048], help="element counts for the kernels")
     p.add_argument("--kernels", action="store_true",
-                   help="whole solves with the closed-form kernel against autograd (3.) instead of the orderings (1.)")
+                   help="whole solves with the closed-form kernel against autograd (3.) instead of the layouts (1.)")
+    p.add_argument("--layouts", nargs=2, choices=LAYOUTS, default=["COLAMD", "NATURAL"], metavar="LAYOUT",
+                   help=f"the two layouts of 1. ({', '.join(LAYOUTS)}; default COLAMD NATURAL)")
     args = p.parse_args()
     if min(args.poses, args.repeats, *args.elements) < 1:
         p.error("--poses, --repeats and --elements take positive counts")
@@ -138,7 +140,7 @@ def main() -> None:
         if args.kernels:
             closed_form_or_autograd(f"band {t}, {len(poses)} poses", run, arms, args.repeats)
         else:
-            compare(f"band {t}, {len(poses)} poses", footprint._Problem, run, arms, args.repeats)
+            compare(f"band {t}, {len(poses)} poses", footprint._Problem, run, arms, args.repeats, args.layouts)
     if args.full_tendon != "none":
         spec = full.specs()[args.full_tendon]
         lengths = full.length_grids()[args.full_tendon]
@@ -148,7 +150,7 @@ def main() -> None:
         if args.kernels:
             closed_form_or_autograd(label, run, forces, args.repeats)
         else:
-            compare(label, SheetProblem, run, forces, args.repeats)
+            compare(label, SheetProblem, run, forces, args.repeats, args.layouts)
 
 
 if __name__ == "__main__":

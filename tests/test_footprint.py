@@ -355,18 +355,19 @@ def test_the_taut_band_is_stress_free_at_each_pose_and_needs_no_walk(pose):
         walk.solve_from(slack, alone["nodes"])
 
 
-def test_the_band_reaches_the_same_equilibrium_in_either_lu_ordering(pose, monkeypatch):
-    """The footprint sheets' Newton systems are solved in the nodes' own order (`lu_ordering`, faster for a band a
-    few nodes across): SuperLU's default column ordering takes the same steps, to rounding, with the band pressing on
-    its wrap sphere (contact blocks in the tangent)."""
+@pytest.mark.parametrize("layout", ["COLAMD", "NATURAL"])
+def test_the_band_reaches_the_same_equilibrium_in_every_layout(layout, pose, monkeypatch):
+    """The sheets' Newton systems are factorised by LAPACK's banded LU (`MuscleProblem.layout`, faster: the nodes are
+    numbered row by row): SuperLU, in its default column ordering or the nodes' own, takes the same steps, to
+    rounding, with the band pressing on its wrap sphere (contact blocks in the tangent)."""
     band = F.FootprintSheet("ssp", "coarse", pose=pose, rest="pose")
     at = (0.0, 10.0, 0.0)  # pressing on its wrap sphere
-    natural = band.solve(at)
-    assert natural["contact_N"] > 0
-    monkeypatch.setattr(F._Problem, "lu_ordering", "COLAMD")
-    colamd = band.solve(at)
-    np.testing.assert_allclose(colamd["moment_arm_m"], natural["moment_arm_m"], rtol=0, atol=1e-12)
-    np.testing.assert_allclose(colamd["tension_N"], natural["tension_N"], rtol=1e-12)
+    banded = band.solve(at)
+    assert banded["contact_N"] > 0 and F._Problem.layout == "BANDED"
+    monkeypatch.setattr(F._Problem, "layout", layout)
+    other = band.solve(at)
+    np.testing.assert_allclose(other["moment_arm_m"], banded["moment_arm_m"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(other["tension_N"], banded["tension_N"], rtol=1e-12)
 
 
 @pytest.mark.parametrize("tendon", ["ssp", "isp"])

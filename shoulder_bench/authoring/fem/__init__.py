@@ -14,9 +14,11 @@ differences floating point gives on another CPU (~1e-16 relative) do not change 
 from __future__ import annotations
 
 import os
+import signal
 from pathlib import Path
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 CODE_VERSION = "1"  # bump when a change alters solutions; it is part of every table's input hash
 HASH_QUANTUM = 1e-10
@@ -55,3 +57,13 @@ def output_folder(path: Path | str, option: str) -> Path:
     if not os.access(parent, os.W_OK):
         raise ValueError(f"{option} {path}: {parent} is not writable; give a folder you can write to")
     return path
+
+
+def worker_init() -> None:
+    """The initializer of a parallel build's worker processes (`fem build|verify --jobs N`). One BLAS thread: N
+    processes on N cores, each with OpenBLAS's own threads behind LAPACK's banded LU (`assembly`), spin against each
+    other (`fem build --full --jobs 2` ran slower banded than with SuperLU before this). And SIGTERM ends the worker:
+    the CLI's handler, inherited through fork, turns it into KeyboardInterrupt, which a pool's worker returns as its
+    task's error and then takes the next task, so a terminated build's workers went on solving."""
+    threadpool_limits(1, user_api="blas")
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)

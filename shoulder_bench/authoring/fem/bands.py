@@ -55,7 +55,7 @@ import numpy as np
 from tqdm import tqdm
 
 from shoulder_bench import full_arm
-from shoulder_bench.authoring.fem import rounded
+from shoulder_bench.authoring.fem import rounded, worker_init
 from shoulder_bench.authoring.fem.footprint import FLAT_DRAPE, FOOTPRINT_M, SETTINGS
 from shoulder_bench.authoring.fem.footprint_compare import compare
 from shoulder_bench.authoring.fem.full import locked_folder
@@ -303,7 +303,7 @@ CHUNK = 20  # poses a worker process solves at a time (the sheet is set up anew 
 def _solve_parallel(tendon: str, poses: np.ndarray, resolution: str, progress, jobs: int, activations) -> dict:
     chunks = [poses[i:i + CHUNK] for i in range(0, len(poses), CHUNK)]
     parts = [None] * len(chunks)
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
+    with ProcessPoolExecutor(max_workers=jobs, initializer=worker_init) as pool:
         futures = {pool.submit(solve_poses, tendon, c, resolution, activations=activations): k
                    for k, c in enumerate(chunks)}
         try:

@@ -376,11 +376,6 @@ class _Problem(MuscleProblem):
     """`MuscleProblem` with its boundary nodes placed by the pose (not rotated about one axis) and the contact
     surface (sphere or cylinder) where the pose puts it."""
 
-    # The sheets number their nodes row by row across the fibres (`grid_triangles`), so a band a few nodes across has
-    # a banded tangent as numbered: SuperLU in that order takes the same steps (to rounding) and solves a band 1.2 x
-    # faster than with its default column ordering (`python benchmarks/fem_solver_speed.py`; not the 33 x 33 sheets)
-    lu_ordering = "NATURAL"
-
     def nodes_of(self, which: str) -> np.ndarray:
         return self.origin if which == "origin" else self.insertion
 

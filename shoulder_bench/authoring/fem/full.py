@@ -37,7 +37,7 @@ from tqdm import tqdm
 
 from shoulder_bench import full_arm
 from shoulder_bench.authoring import mobl_data, tendons
-from shoulder_bench.authoring.fem import output_folder, quantised, rounded
+from shoulder_bench.authoring.fem import output_folder, quantised, rounded, worker_init
 from shoulder_bench.authoring.fem.material import Material
 from shoulder_bench.authoring.fem.shells import mesh_sha256
 from shoulder_bench.authoring.fem.solver import NoConvergence
@@ -161,8 +161,8 @@ def _build(folder: Path, coarse: bool, quiet: bool, jobs: int, names: tuple, mat
         else:
             todo.append((t, digest, path))
     parallel = int(jobs) > 1 and len(todo) > 1
-    with tqdm(total=len(todo), desc="fem full (tendons)", disable=quiet or not todo) as bar, \
-            (ProcessPoolExecutor(max_workers=int(jobs)) if parallel else contextlib.nullcontext()) as pool:
+    pool = ProcessPoolExecutor(int(jobs), initializer=worker_init) if parallel else contextlib.nullcontext()
+    with tqdm(total=len(todo), desc="fem full (tendons)", disable=quiet or not todo) as bar, pool:
         solved = (pool.map if parallel else map)(_solve_one, [(t, all_specs[t], grids[t], res, material, settings)
                                                                 for t, _, _ in todo])
         for (t, digest, path), (_, fem, seconds) in zip(todo, solved):  # map keeps the order

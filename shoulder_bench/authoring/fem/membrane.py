@@ -158,7 +158,8 @@ def membrane_forces(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activat
     return g
 
 
-def _dofs(mem: Membrane) -> np.ndarray:
+def element_dofs(mem: Membrane) -> np.ndarray:
+    """Each element's 9 degrees of freedom (its nodes' x, y, z), (T, 9)."""
     return (3 * mem.triangles[:, :, None] + np.arange(3)).reshape(-1, 9)  # (T, 9)
 
 
@@ -171,8 +172,8 @@ def _material_blocks(d2w: np.ndarray, dc: np.ndarray) -> np.ndarray:
         t, 3, 3, 3, 3)
 
 
-def membrane_tangent(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float):
-    """(energy, gradient (3N,), sparse Hessian (3N x 3N) CSR)."""
+def membrane_blocks(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float):
+    """(energy, gradient (3N,), element Hessians (T, 9, 9) over `element_dofs`)."""
     b, f1, f2, c = membrane_kinematics(mem, x)
     w, dw, d2w = kernel.derivatives(c, activation)
     vol = mem.area * mem.thickness
@@ -183,10 +184,15 @@ def membrane_tangent(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activa
          + 2.0 * dw[:, 1, None, None] * b[:, :, None, 1] * b[:, None, :, 1]
          + dw[:, 2, None, None] * (b[:, :, None, 0] * b[:, None, :, 1] + b[:, :, None, 1] * b[:, None, :, 0]))
     he = vol[:, None, None, None, None] * (h_mat + s[:, :, None, :, None] * np.eye(3)[None, None, :, None, :])
-    dofs = _dofs(mem)
+    g = np.bincount(element_dofs(mem).ravel(), weights=ge.reshape(-1, 9).ravel(), minlength=3 * mem.n_nodes)
+    return float(np.sum(vol * w)), g, he.reshape(-1, 9, 9)
+
+
+def membrane_tangent(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float):
+    """(energy, gradient (3N,), sparse Hessian (3N x 3N) CSR)."""
+    e, g, he = membrane_blocks(mem, kernel, x, activation)
+    dofs = element_dofs(mem)
     n = 3 * mem.n_nodes
-    g = np.bincount(dofs.ravel(), weights=ge.reshape(-1, 9).ravel(), minlength=n)
     rows = np.repeat(dofs, 9, axis=1).ravel()
     cols = np.tile(dofs, (1, 9)).ravel()
-    h = sp.csr_matrix((he.reshape(-1, 9, 9).ravel(), (rows, cols)), shape=(n, n))
-    return float(np.sum(vol * w)), g, h
+    return e, g, sp.csr_matrix((he.ravel(), (rows, cols)), shape=(n, n))

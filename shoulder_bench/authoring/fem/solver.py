@@ -21,8 +21,14 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from shoulder_bench.authoring import anatomy
+from shoulder_bench.authoring.fem.assembly import Assembly, FreeMatrix
 from shoulder_bench.authoring.fem.material import Material
-from shoulder_bench.authoring.fem.membrane import ElementKernel, Membrane, membrane_tangent
+from shoulder_bench.authoring.fem.membrane import (
+    ElementKernel,
+    Membrane,
+    element_dofs,
+    membrane_blocks,
+)
 
 
 @dataclass(frozen=True)
@@ -84,9 +90,11 @@ def _harmonic_weight(triangles, n, origin, insertion) -> np.ndarray:
 class MuscleProblem:
     """One muscle sheet, ready to solve at any (theta, activation)."""
 
-    # SuperLU's column ordering of the Newton systems (`spsolve`'s permc_spec): its default, COLAMD, for sheets as
-    # wide as long; a narrow band takes "NATURAL" (`footprint`; `python benchmarks/fem_solver_speed.py`)
-    lu_ordering = "COLAMD"
+    # How the Newton systems are factorised (`assembly.LAYOUTS`): every sheet numbers its nodes row by row across the
+    # fibres (`shells.grid_triangles`), so its tangent is banded as numbered and LAPACK's banded LU solves it faster
+    # than SuperLU in any column order, with the same steps to rounding (`python benchmarks/fem_solver_speed.py
+    # --layouts COLAMD BANDED`; docs/fem.md "Newton")
+    layout = "BANDED"
 
     def __init__(self, shell: dict, material: Material | None = None, settings: SolverSettings | None = None,
                  f0: float | None = None):
@@ -143,18 +151,20 @@ class MuscleProblem:
         blocks = d2e[:, None, None] * nn - (de / np.maximum(r, 1e-12))[:, None, None] * (proj - nn)
         return float(e_n.sum()), g.ravel(), blocks
 
-    def energy_gradient_hessian(self, x: np.ndarray, activation: float):
-        e, g, h = membrane_tangent(self.mem, self.kernel, x, activation)
+    def newton_system(self, x: np.ndarray, activation: float) -> tuple[float, FreeMatrix]:
+        """(energy, the tangent stiffness on the free dofs): membrane, regularisation and contact."""
+        e, _, he = membrane_blocks(self.mem, self.kernel, x, activation)
         u = (x - self.X).ravel()
-        ru = self.reg_matrix @ u
-        e += 0.5 * float(u @ ru)
-        g = g + ru
-        ec, gc, blocks = self._contact(x)
-        n = self.mem.n_nodes
-        rows = (3 * np.arange(n)[:, None, None] + np.arange(3)[None, :, None]).repeat(3, axis=2)
-        cols = rows.transpose(0, 2, 1)
-        hc = sp.csr_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(3 * n, 3 * n))
-        return e + ec, g + gc, (h + self.reg_matrix + hc).tocsr()
+        ec, _, blocks = self._contact(x)
+        return e + 0.5 * float(u @ (self.reg_matrix @ u)) + ec, self._assembly().matrix(he, blocks)
+
+    def _assembly(self) -> Assembly:
+        """The free-dof matrix's layout, worked out once per free set and `layout`."""
+        key = (self.layout, self.free_dofs.tobytes())
+        if self.__dict__.get("_assembled", (None,))[0] != key:
+            self._assembled = (key, Assembly(self.free_dofs, element_dofs(self.mem), self.mem.n_nodes,
+                                             self.reg_matrix, self.layout))
+        return self._assembled[1]
 
     def energy(self, x: np.ndarray, activation: float) -> float:
         from shoulder_bench.authoring.fem.membrane import membrane_energy
@@ -205,20 +215,14 @@ class MuscleProblem:
                 return x, it
             if it == s.max_iter:
                 break
-            e, _, h = self.energy_gradient_hessian(x, activation)
-            hff = h[fd][:, fd].tocsc()
-            diag_scale = float(np.mean(np.abs(hff.diagonal())))
+            e, h = self.newton_system(x, activation)
+            diag_scale = h.mean_abs_diagonal()
             step = None
-            finite = bool(np.all(np.isfinite(hff.data)))  # SuperLU can crash on a non-finite matrix: no step from it
-            for shift in (0.0, 1e-6, 1e-4, 1e-2, 1.0) if finite else ():  # Levenberg shifts (of the mean diagonal)
-                a = hff if shift == 0.0 else hff + shift * diag_scale * sp.identity(len(fd), format="csc")
-                try:
-                    p = -spla.spsolve(a, r, permc_spec=self.lu_ordering)
-                except RuntimeError:
+            for shift in (0.0, 1e-6, 1e-4, 1e-2, 1.0) if h.finite() else ():  # Levenberg shifts (of the mean
+                p = h.solve(r, shift * diag_scale)  # diagonal); none on a non-finite matrix (SuperLU can crash on one)
+                if p is None or not np.all(np.isfinite(p)):
                     continue
-                if not np.all(np.isfinite(p)):
-                    continue
-                step = self._line_search(x, p, r, rn, e, activation)
+                step = self._line_search(x, -p, r, rn, e, activation)
                 if step is not None:
                     break
             if step is None:
@@ -276,7 +280,7 @@ class MuscleProblem:
 
         Contact forces from the head sphere are radial through the joint centre, so they add no torque.
         """
-        _, g, _ = membrane_tangent(self.mem, self.kernel, x, activation)
+        _, g, _ = membrane_blocks(self.mem, self.kernel, x, activation)
         u = (x - self.X).ravel()
         g = (g + self.reg_matrix @ u).reshape(-1, 3)
         f = -g[self.insertion]
