@@ -154,3 +154,37 @@ def test_cli_errors_for_the_full_build():
         main(["build", "--jobs", "2"])
     with pytest.raises(SystemExit, match="--tendon"):
         main(["build", "--full", "--muscle", "ssp"])
+
+
+def _interrupted_first(job):
+    """Stands in for `full._solve_one` in the workers: marks its tendon started; the first raises KeyboardInterrupt (as
+    Ctrl-C raises it in a worker), the others take a while."""
+    import time
+
+    t, spec = job[0], job[1]
+    (spec.marks / t).touch()
+    if t == spec.first:
+        raise KeyboardInterrupt
+    time.sleep(0.2)
+    return t, {}, 0.0
+
+
+def test_an_interrupted_parallel_build_drops_the_tendons_not_started(monkeypatch, tmp_path):
+    """`fem build --full --jobs 2` interrupted stops without solving the tendons its workers had not started (the
+    pool's `map` cancels them) and writes no table."""
+    marks = tmp_path / "started"
+    marks.mkdir()
+    specs = full.specs()
+    first = next(iter(specs))
+    marked = {t: dataclasses.replace(s) for t, s in specs.items()}
+    for s in marked.values():
+        object.__setattr__(s, "marks", marks)
+        object.__setattr__(s, "first", first)
+    monkeypatch.setattr(full, "specs", lambda geometry=None: marked)
+    monkeypatch.setattr(full, "input_hash", lambda *a, **k: "x")
+    monkeypatch.setattr(full, "_solve_one", _interrupted_first)
+    with pytest.raises(KeyboardInterrupt):
+        full.build(out=tmp_path / "tables", jobs=2, quiet=True)
+    started = sorted(p.name for p in marks.iterdir())
+    assert first in started and len(started) <= 8 < len(specs)  # the running and the queued (6 here), a margin
+    assert not list((tmp_path / "tables").glob("*.npz"))
