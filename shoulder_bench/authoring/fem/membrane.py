@@ -10,8 +10,8 @@ The energy density is written once as a function of C = (C11, C22, C12) (`materi
 derivatives in c are written out in closed form (`material.fibre_derivatives`, `material.background_derivatives`,
 chained to c here) and held to torch autograd of the energy, branch by branch (`autograd_derivatives`,
 tests/test_membrane.py): autograd itself took 42 % of a band solve. The chain rule to node positions, which only
-involves the linear maps F = sum_a x_a B_a and C = F^T F, is written out in numpy. The 9x9 element blocks are
-assembled into a scipy.sparse matrix.
+involves the linear maps F = sum_a x_a B_a and C = F^T F, is written out in numpy. The 9x9 element blocks
+(`membrane_blocks`) go into the Newton system's fixed layout (`assembly`), or a sparse matrix (`membrane_tangent`).
 """
 from __future__ import annotations
 
