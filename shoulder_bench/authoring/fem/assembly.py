@@ -3,10 +3,10 @@
 A sheet's stiffness has the same non-zeros at every iteration (the elements' blocks, the nodes' contact blocks, the
 regularisation), so where each contribution lands is worked out once (`Assembly`); an iteration sums the values into
 place with one `np.bincount` instead of building a sparse matrix from coordinates, adding three and slicing out the
-free rows and columns. Layouts (`LAYOUTS`, `MuscleProblem.layout`): SuperLU's compressed columns with its column
-ordering, COLAMD (SciPy's default, for sheets as wide as long) or the nodes' own (NATURAL); or BANDED, LAPACK's banded
-LU with partial pivoting (`scipy.linalg.solve_banded`) in the nodes' own order, for a band a few nodes across numbered
-row by row, whose matrix is banded as numbered (SciPy has no banded sparse solver, hence the layout here).
+free rows and columns. Layouts (`LAYOUTS`, `MuscleProblem.layout`): BANDED, LAPACK's banded LU with partial pivoting
+(`scipy.linalg.solve_banded`) in the nodes' own order, for sheets numbered row by row, whose matrix is banded as
+numbered (the default; SciPy has no banded sparse solver, hence the layout here); or SuperLU's compressed columns in
+its column ordering, COLAMD (SciPy's default) or the nodes' own (NATURAL), as the sheets were solved before.
 """
 from __future__ import annotations
 
@@ -25,8 +25,8 @@ class Assembly:
     def __init__(self, free_dofs: np.ndarray, element_dofs: np.ndarray, n_nodes: int, reg_matrix, layout: str):
         if layout not in LAYOUTS:
             raise ValueError(f"unknown layout {layout!r}; choose from {', '.join(LAYOUTS)}")
-        self.layout, m = layout, len(free_dofs)
-        self.m = m
+        self.layout = layout
+        self.m = m = len(free_dofs)
         pos = np.full(3 * n_nodes, -1, np.int64)
         pos[free_dofs] = np.arange(m)
         nodes = 3 * np.arange(n_nodes)[:, None] + np.arange(3)

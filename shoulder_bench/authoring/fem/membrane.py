@@ -73,8 +73,8 @@ def energy_density(c, activation: float, material: Material):
 
 
 def autograd_derivatives(c: np.ndarray, activation: float, material: Material):
-    """(W, dW/dc, d2W/dc2) by torch autograd of `energy_density`: the reference `ElementKernel`'s closed form is held
-    to (tests/test_membrane.py) and timed against (benchmarks/fem_solver_speed.py)."""
+    """(W, dW/dc, d2W/dc2) by torch autograd of `energy_density`: what `ElementKernel`'s closed form is held to
+    (tests/test_membrane.py) and timed against (benchmarks/fem_solver_speed.py)."""
     ct = torch.from_numpy(c).requires_grad_(True)
     w = energy_density(ct, activation, material)
     (dw,) = torch.autograd.grad(w.sum(), ct, create_graph=True)
