@@ -28,6 +28,8 @@ from shoulder_bench.authoring.fem.membrane import (
     Membrane,
     element_dofs,
     membrane_blocks,
+    membrane_energy,
+    membrane_forces,
 )
 
 
@@ -167,8 +169,6 @@ class MuscleProblem:
         return self._assembled[1]
 
     def energy(self, x: np.ndarray, activation: float) -> float:
-        from shoulder_bench.authoring.fem.membrane import membrane_energy
-
         u = (x - self.X).ravel()
         return membrane_energy(self.mem, self.kernel, x, activation) + 0.5 * float(u @ (self.reg_matrix @ u)) \
             + self._contact(x)[0]
@@ -190,8 +190,6 @@ class MuscleProblem:
 
     # -- Newton ------------------------------------------------------------------------------------------------------
     def gradient(self, x: np.ndarray, activation: float) -> np.ndarray:
-        from shoulder_bench.authoring.fem.membrane import membrane_forces
-
         u = (x - self.X).ravel()
         return membrane_forces(self.mem, self.kernel, x, activation).ravel() + self.reg_matrix @ u + self._contact(x)[1]
 
@@ -280,9 +278,8 @@ class MuscleProblem:
 
         Contact forces from the head sphere are radial through the joint centre, so they add no torque.
         """
-        _, g, _ = membrane_blocks(self.mem, self.kernel, x, activation)
         u = (x - self.X).ravel()
-        g = (g + self.reg_matrix @ u).reshape(-1, 3)
+        g = (membrane_forces(self.mem, self.kernel, x, activation).ravel() + self.reg_matrix @ u).reshape(-1, 3)
         f = -g[self.insertion]
         torque = np.cross(x[self.insertion], f)[:, 0].sum()
         return f.sum(0), float(torque)
