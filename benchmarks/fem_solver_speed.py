@@ -1,29 +1,36 @@
 """The FEM solver's speed, side by side in one run (docs/fem.md "Newton"):
 
     .venv/bin/python benchmarks/fem_solver_speed.py [--tendon T ...] [--poses N] [--full-tendon T] [--repeats R]
-        [--elements T ...] [--kernels] [--layouts A B]
+        [--elements T ...] [--kernels] [--layouts A B] [--max-iter A B]
 
 1. How the sheets' Newton systems are factorised (`MuscleProblem.layout`, `assembly.LAYOUTS`; `--layouts A B`,
    default COLAMD NATURAL): SuperLU with COLAMD (SciPy's default, the length-keyed sheets') or the natural order, or
-   LAPACK's banded LU (BANDED, the footprint sheets'). For each band tendon, N of its table's
-   grid poses (evenly spaced through the grid) solved as `fem build --bands` solves them (`bands.solve_poses`, full
-   sheets); for --full-tendon, its length-keyed sheet as `fem build --full` solves it (every length and activation of
-   its table). Each with either layout, alternating, `--repeats` times: the best wall time of each, their ratio, and
-   the largest difference between the two layouts' results (moment arms in mm; forces in N), which is rounding if
-   the layouts take the same Newton steps.
-2. The element kernels of every tangent (`membrane.membrane_tangent`), on T elements at random strains (`--elements`:
-   480, a full footprint band; 2,048, a 33 x 33 length-keyed sheet): the material part of the element Hessians as
-   batched matrix products against the one-call einsum, d2W/dc2 by autograd in one batched reverse pass against
-   three passes, and the energy's derivatives in closed form (`ElementKernel`) against autograd
-   (`membrane.autograd_derivatives`); the best of 50 calls each, their ratio and the largest difference.
-3. The same in whole solves (`--kernels`): each band tendon's N grid poses solved with the closed-form kernel and with
-   autograd swapped in, alternating, `--repeats` times: best wall times, ratio, and the largest difference of the
-   results (the tangents differ by rounding, so Newton's iterates part within the solver's tolerance, not to
+   LAPACK's banded LU (BANDED, the footprint sheets'). For each band tendon, N of its table's grid poses (evenly
+   spaced through the grid) solved as `fem build --bands` solves them (`bands.solve_poses`, full sheets); for
+   --full-tendon, its length-keyed sheet as `fem build --full` solves it (every length and activation of its table).
+   Each with either layout, alternating, `--repeats` times: the best wall time of each, their ratio, and the largest
+   difference between the two layouts' results (moment arms in mm; forces in N), which is rounding if the layouts
+   take the same Newton steps.
+2. The element kernels of every tangent, on T elements (`--elements`: 480, a full footprint band; 2,048, a 33 x 33
+   length-keyed sheet): d2W/dc2 by autograd in one batched reverse pass against three passes; the energy's
+   derivatives in closed form, compiled (`ElementKernel.derivatives`), against autograd
+   (`membrane.autograd_derivatives`); and the whole element pass (`ElementKernel.pass_`: the energy, the gradient and
+   with Hessians the 9 x 9 element blocks, one compiled loop over the elements) against the same in numpy array code
+   around autograd's derivatives (`autograd_pass`, as the solver was before the closed form), on a randomly strained
+   flat sheet; the best of 50 calls each, their ratio and the largest difference.
+3. The same in whole solves (`--kernels`): each band tendon's N grid poses solved with the compiled pass and with
+   `autograd_pass` swapped in, alternating, `--repeats` times: best wall times, ratio, and the largest difference of
+   the results (the tangents differ by rounding, so Newton's iterates part within the solver's tolerance, not to
    rounding).
+4. Newton's iteration cap in the band solves (`--max-iter A B`: `footprint.SETTINGS.max_iter`): each band tendon's N
+   grid poses solved with either cap, alternating; a step whose Newton fails is halved (`MuscleProblem.step`), so a
+   lower cap gives up sooner on a wandering solve; the largest difference of the results shows whether the
+   equilibria found are the same.
 """
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 
 import numpy as np
@@ -35,10 +42,13 @@ from shoulder_bench.authoring.fem.assembly import LAYOUTS
 from shoulder_bench.authoring.fem.material import Material
 from shoulder_bench.authoring.fem.membrane import (
     ElementKernel,
-    _material_blocks,
+    Membrane,
     autograd_derivatives,
+    element_dofs,
     energy_density,
+    membrane_kinematics,
 )
+from shoulder_bench.authoring.fem.shells import grid_triangles
 from shoulder_bench.authoring.fem.v2 import SETTINGS, solve
 from shoulder_bench.authoring.fem.v2_sheet import SheetProblem
 
@@ -70,20 +80,46 @@ def compare(label: str, problem: type, run, difference, repeats: int, layouts) -
     problem.layout = kept
 
 
-def closed_form_or_autograd(label: str, run, difference, repeats: int) -> None:
-    """`run` with the closed-form kernel and with autograd in its place (ElementKernel.derivatives swapped)."""
-    closed = ElementKernel.derivatives
+def autograd_pass(kernel: ElementKernel, mem: Membrane, x: np.ndarray, activation: float, hessian: bool):
+    """`ElementKernel.pass_` as numpy array code around torch autograd's derivatives (the solver before the
+    closed form; the chain rule as it was written before it was compiled)."""
+    b, f1, f2, c = membrane_kinematics(mem, x)
+    w, dw, d2w = autograd_derivatives(c, activation, kernel.material)
+    vol = mem.area * mem.thickness
+    dc = np.stack([2.0 * b[:, :, 0, None] * f1[:, None], 2.0 * b[:, :, 1, None] * f2[:, None],
+                   b[:, :, 0, None] * f2[:, None] + b[:, :, 1, None] * f1[:, None]], axis=2)  # (T, a, i, d)
+    ge = vol[:, None, None] * np.einsum("ti,taid->tad", dw, dc)
+    g = np.bincount(element_dofs(mem).ravel(), weights=ge.reshape(-1), minlength=3 * mem.n_nodes)
+    if not hessian:
+        return float(np.sum(vol * w)), g, None
+    t = len(dc)
+    h_mat = (dc.transpose(0, 1, 3, 2).reshape(t, 9, 3) @ d2w @ dc.transpose(0, 2, 1, 3).reshape(t, 3, 9))
+    s = (2.0 * dw[:, 0, None, None] * b[:, :, None, 0] * b[:, None, :, 0]
+         + 2.0 * dw[:, 1, None, None] * b[:, :, None, 1] * b[:, None, :, 1]
+         + dw[:, 2, None, None] * (b[:, :, None, 0] * b[:, None, :, 1] + b[:, :, None, 1] * b[:, None, :, 0]))
+    h_geo = (s[:, :, None, :, None] * np.eye(3)[None, None, :, None, :]).reshape(t, 9, 9)
+    return float(np.sum(vol * w)), g, vol[:, None, None] * (h_mat + h_geo)
 
-    def autograd(self, c, activation, second=True):
-        w, dw, d2w = autograd_derivatives(c, activation, self.material)
-        return w, dw, d2w if second else None
 
-    variants = {"autograd": lambda: setattr(ElementKernel, "derivatives", autograd),
-                "closed form": lambda: setattr(ElementKernel, "derivatives", closed)}
+def compiled_or_autograd(label: str, run, difference, repeats: int) -> None:
+    """`run` with the compiled pass and with `autograd_pass` in its place (ElementKernel.pass_ swapped)."""
+    compiled = ElementKernel.pass_
+    variants = {"autograd": lambda: setattr(ElementKernel, "pass_", autograd_pass),
+                "compiled": lambda: setattr(ElementKernel, "pass_", compiled)}
     try:
         side_by_side(label, variants, run, difference, repeats)
     finally:
-        ElementKernel.derivatives = closed
+        ElementKernel.pass_ = compiled
+
+
+def iteration_caps(label: str, run, difference, repeats: int, caps) -> None:
+    kept = footprint.SETTINGS
+    variants = {f"cap {c}": (lambda c=c: setattr(footprint, "SETTINGS", dataclasses.replace(kept, max_iter=c)))
+                for c in caps}
+    try:
+        side_by_side(f"{label} (in use: {kept.max_iter})", variants, run, difference, repeats)
+    finally:
+        footprint.SETTINGS = kept
 
 
 def arms(a: dict, b: dict) -> str:
@@ -92,14 +128,22 @@ def arms(a: dict, b: dict) -> str:
     return f"{np.max(np.abs(a['fem_m'][both] - b['fem_m'][both])) * 1e3:.1e} mm ({solved})"
 
 
+def strained_sheet(t: int, rng) -> tuple[Membrane, np.ndarray]:
+    """A flat fibre sheet of about t elements (a square grid of nodes) and a random strain of it."""
+    n = int(round(np.sqrt(t / 2.0))) + 1
+    u, v = np.meshgrid(np.linspace(0.0, 0.05, n), np.linspace(0.0, 0.05, n), indexing="ij")
+    nodes = np.stack([u.ravel(), v.ravel(), np.zeros(u.size)], axis=1)
+    tri = grid_triangles(n, n)
+    mem = Membrane.from_mesh(nodes, tri, np.tile([1.0, 0.0, 0.0], (len(tri), 1)), 0.002)
+    x = nodes @ np.array([[1.2, 0.0, 0.02], [0.1, 1.05, 0.0], [0.0, 0.0, 1.0]]).T
+    return mem, x + 2e-4 * rng.normal(size=x.shape)
+
+
 def kernels(t: int) -> None:
     rng = np.random.default_rng(0)
-    dc, d2w = rng.normal(size=(t, 3, 3, 3)), rng.normal(size=(t, 3, 3))
     c = np.stack([1.0 + 0.3 * rng.random(t), 1.0 + 0.1 * rng.normal(size=t), 0.05 * rng.normal(size=t)], axis=1)
     kernel = ElementKernel(Material())
-
-    def einsum():
-        return np.einsum("tij,taid,tbje->tadbe", d2w, dc, dc)
+    mem, x = strained_sheet(t, rng)
 
     def three_passes():
         ct = torch.from_numpy(c).requires_grad_(True)
@@ -110,12 +154,20 @@ def kernels(t: int) -> None:
     def autograd():
         return autograd_derivatives(c, 1.0, kernel.material)[2]
 
-    for label, old, new in (("element Hessians, material part", einsum, lambda: _material_blocks(d2w, dc)),
-                            ("d2W/dc2 by autograd", three_passes, autograd),
-                            ("d2W/dc2 in closed form", autograd, lambda: kernel.derivatives(c, 1.0)[2])):
+    def passes(hessian: bool):
+        pick = 2 if hessian else 1
+        return (lambda: autograd_pass(kernel, mem, x, 1.0, hessian)[pick],
+                lambda: kernel.pass_(mem, x, 1.0, hessian)[pick])
+
+    for label, old, new in (("d2W/dc2 by autograd", three_passes, autograd),
+                            ("d2W/dc2 in closed form", autograd, lambda: kernel.derivatives(c, 1.0)[2]),
+                            ("element pass, gradient", *passes(False)),
+                            ("element pass, Hessians", *passes(True))):
         a, b = best_ms(old, 50), best_ms(new, 50)
-        print(f"{label:<34} {t:5d} elements: before {a:6.3f} ms  now {b:6.3f} ms  ratio {a / b:5.2f} x  largest "
-              f"difference {np.max(np.abs(old() - new())):.1e}", flush=True)
+        scale = np.max(np.abs(old()))
+        print(f"{label:<34} {len(c) if 'd2W' in label else len(mem.triangles):5d} elements: before {a:6.3f} ms  "
+              f"now {b:6.3f} ms  ratio {a / b:5.2f} x  largest difference {np.max(np.abs(old() - new())) / scale:.1e} "
+              "of the largest entry", flush=True)
 
 
 def main() -> None:
@@ -127,9 +179,11 @@ def main() -> None:
     p.add_argument("--repeats", type=int, default=2)
     p.add_argument("--elements", type=int, nargs="+", default=[480, 2048], help="element counts for the kernels")
     p.add_argument("--kernels", action="store_true",
-                   help="whole solves with the closed-form kernel against autograd (3.) instead of the layouts (1.)")
+                   help="whole solves with the compiled pass against autograd's (3.) instead of the layouts (1.)")
     p.add_argument("--layouts", nargs=2, choices=LAYOUTS, default=["COLAMD", "NATURAL"], metavar="LAYOUT",
                    help=f"the two layouts of 1. ({', '.join(LAYOUTS)}; default COLAMD NATURAL)")
+    p.add_argument("--max-iter", type=int, nargs=2, metavar="CAP",
+                   help="band solves with Newton's iteration cap A against B (4.) instead of the layouts (1.)")
     args = p.parse_args()
     if min(args.poses, args.repeats, *args.elements) < 1:
         p.error("--poses, --repeats and --elements take positive counts")
@@ -140,17 +194,19 @@ def main() -> None:
         poses = grid[np.linspace(0, len(grid) - 1, args.poses).astype(int)]
         run = lambda t=t, poses=poses: bands.solve_poses(t, poses, "full")  # noqa: E731
         if args.kernels:
-            closed_form_or_autograd(f"band {t}, {len(poses)} poses", run, arms, args.repeats)
+            compiled_or_autograd(f"band {t}, {len(poses)} poses", run, arms, args.repeats)
+        elif args.max_iter:
+            iteration_caps(f"band {t}, {len(poses)} poses", run, arms, args.repeats, args.max_iter)
         else:
             compare(f"band {t}, {len(poses)} poses", footprint._Problem, run, arms, args.repeats, args.layouts)
-    if args.full_tendon != "none":
+    if args.full_tendon != "none" and not args.max_iter:
         spec = full.specs()[args.full_tendon]
         lengths = full.length_grids()[args.full_tendon]
         label = f"length-keyed {args.full_tendon}, {len(lengths)} lengths"
         run = lambda: solve(spec, lengths - spec.l_ts, "full", Material(), SETTINGS)  # noqa: E731
         forces = lambda a, b: f"{np.max(np.abs(a['force'] - b['force'])):.1e} N"  # noqa: E731
         if args.kernels:
-            closed_form_or_autograd(label, run, forces, args.repeats)
+            compiled_or_autograd(label, run, forces, args.repeats)
         else:
             compare(label, SheetProblem, run, forces, args.repeats, args.layouts)
 

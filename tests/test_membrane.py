@@ -13,6 +13,7 @@ from shoulder_bench.authoring.fem.membrane import (
     autograd_derivatives,
     membrane_energy,
     membrane_forces,
+    membrane_forces_energy,
     membrane_tangent,
 )
 from shoulder_bench.authoring.fem.shells import grid_triangles
@@ -38,6 +39,8 @@ def test_forces_and_tangent_are_the_energys_derivatives(activation):
     e, g, h = membrane_tangent(mem, kernel, x, activation)
     assert e == pytest.approx(membrane_energy(mem, kernel, x, activation), rel=1e-12)
     np.testing.assert_allclose(g, membrane_forces(mem, kernel, x, activation).ravel(), rtol=1e-12, atol=1e-12)
+    forces, energy = membrane_forces_energy(mem, kernel, x, activation)
+    assert energy == pytest.approx(e, rel=1e-12) and np.array_equal(forces.ravel(), g)
     step = 1e-7
     fd_g, fd_h = np.zeros(x.size), np.zeros((x.size, x.size))
     for k in range(x.size):

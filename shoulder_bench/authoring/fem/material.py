@@ -8,12 +8,13 @@ for an incompressible sheet; taking sigma_max * f as the Cauchy stress makes the
 lambda = 1 and Newton fails (../shared/reference/shoulder_parameters.md).
 
 The energies accept numpy arrays or torch tensors (they use only `where`, `exp` and min/max arithmetic); the
-derivatives numpy arrays.
+derivatives below are compiled scalar functions, one element at a time.
 """
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
+import numba
 import numpy as np
 import torch
 
@@ -156,50 +157,76 @@ def background_energy(tr_c, det_c, b: Background = Background(), relaxed: bool =
     return xp.where(e2 >= -nu * e1, taut, xp.where(e1 > 0.0, wrinkled, 0.0 * e1))
 
 
-# -- closed-form derivatives (numpy), for the Newton solves (fem.membrane.ElementKernel) -------------------------------
-# The same functions as the energies above, differentiated by hand: torch autograd of the energies took 42 % of a band
-# solve (docs/fem.md "Newton"); tests/test_membrane.py holds these to autograd of the energies, on every branch.
+# -- closed-form derivatives, compiled (numba), for the Newton solves (fem.membrane) -----------------------------------
+# The same functions as the energies above, differentiated by hand, one element at a time: torch autograd of the
+# energies took 42 % of a band solve, and the same closed form as numpy array code still spent most of its time in
+# numpy's per-call overhead on ~500 elements (docs/fem.md "Newton"). tests/test_membrane.py holds these to autograd of
+# the energies, on every branch. The parameters come as plain floats (`fibre_parameters`, `background_parameters`).
 
 
-def fibre_derivatives(lam: np.ndarray, activation: float, c: Blemker = Blemker()):
-    """`fibre_energy` and its first and second derivatives in lambda: (W, W', W'')."""
-    lh = lam / c.lambda_ofl
-    ls = c.lambda_star / c.lambda_ofl
-    passive = np.where(lh <= 1.0, 0.0, np.where(lh <= ls, c.p1 * c.p2 * np.exp(c.p2 * (np.minimum(lh, ls) - 1.0)),
-                                                  c.p3))
-    active = np.where((lh < 0.4) | (lh > 1.6), 0.0,
-                      np.where(lh <= 0.6, 18.0 * (lh - 0.4), np.where(lh < 1.4, 8.0 * (1.0 - lh), 18.0 * (lh - 1.6))))
-    slope = c.sigma_max * (passive + activation * active) / c.lambda_ofl**2
-    return fibre_energy(lam, activation, c), nominal_fibre_stress(lam, activation, c), slope
+def fibre_parameters(c: Blemker) -> tuple:
+    return (c.sigma_max, c.lambda_ofl, c.lambda_star, c.p1, c.p2, c.p3)
 
 
-def background_derivatives(tr_c: np.ndarray, det_c: np.ndarray, b: Background = Background()):
-    """`background_energy` (relaxed) and its derivatives in (tr C, det C): (W, W_t, W_d, W_tt, W_td, W_dd).
+def background_parameters(b: Background) -> tuple:
+    return (b.mu, b.lam, b.youngs_modulus, b.poisson_ratio)
 
-    Through s = sqrt(det C) and tr U = u = sqrt(tr C + 2 s); the wrinkled piece through e1 = (u + r) / 2 - 1 with
-    r = sqrt(u^2 - 4 s) = sqrt(tr C - 2 s), the difference of the principal stretches. Each piece where it applies."""
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def fibre_point(lam, activation, sigma_max, lambda_ofl, lambda_star, p1, p2, p3):
+    """`fibre_energy` and its first and second derivatives in lambda at one stretch: (W, W', W'')."""
+    lh, ls = lam / lambda_ofl, lambda_star / lambda_ofl
+    xe = min(max(lh, 1.0), ls)
+    d = max(lh - ls, 0.0)
+    f_ls = p1 * (np.exp(p2 * (ls - 1.0)) - 1.0)
+    w_passive = p1 * ((np.exp(p2 * (xe - 1.0)) - 1.0) / p2 - (xe - 1.0)) + f_ls * d + 0.5 * p3 * d * d
+    x1, x2, x3 = min(max(lh, 0.4), 0.6), min(max(lh, 0.6), 1.4), min(max(lh, 1.4), 1.6)
+    w_active = 3.0 * (x1 - 0.4) ** 3 + (x2 - 0.6) + (4.0 / 3.0) * ((1.0 - x2) ** 3 - 0.4**3) \
+        + 3.0 * ((x3 - 1.6) ** 3 + 0.2**3)
+    if lh <= 1.0:
+        f_p, s_p = 0.0, 0.0
+    elif lh <= ls:
+        f_p, s_p = p1 * (np.exp(p2 * (lh - 1.0)) - 1.0), p1 * p2 * np.exp(p2 * (lh - 1.0))
+    else:
+        f_p, s_p = f_ls + p3 * (lh - ls), p3
+    if lh < 0.4 or lh > 1.6:
+        f_a, s_a = 0.0, 0.0
+    elif lh <= 0.6:
+        f_a, s_a = 9.0 * (lh - 0.4) ** 2, 18.0 * (lh - 0.4)
+    elif lh < 1.4:
+        f_a, s_a = 1.0 - 4.0 * (1.0 - lh) ** 2, 8.0 * (1.0 - lh)
+    else:
+        f_a, s_a = 9.0 * (lh - 1.6) ** 2, 18.0 * (lh - 1.6)
+    return (sigma_max * (w_passive + activation * w_active), sigma_max * (f_p + activation * f_a) / lambda_ofl,
+            sigma_max * (s_p + activation * s_a) / lambda_ofl**2)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def background_point(tr_c, det_c, mu, lam, youngs_modulus, poisson_ratio):
+    """`background_energy` (relaxed) and its derivatives in (tr C, det C) at one element: (W, W_t, W_d, W_tt, W_td,
+    W_dd). Through s = sqrt(det C) and tr U = u = sqrt(tr C + 2 s); the wrinkled piece through e1 = (u + r) / 2 - 1
+    with r = sqrt(u^2 - 4 s) = sqrt(tr C - 2 s), the difference of the principal stretches. Each piece where it
+    applies."""
     s = np.sqrt(det_c)
     u = np.sqrt(tr_c + 2.0 * s)
-    root = _safe_sqrt(u**2 - 4.0 * s, np)
+    q = u * u - 4.0 * s
+    root = np.sqrt(q) if q > 1e-30 else 0.0 * q
     e1, e2 = 0.5 * (u + root) - 1.0, 0.5 * (u - root) - 1.0
-    taut = e2 >= -b.poisson_ratio * e1
-    wrinkled = ~taut & (e1 > 0.0)
-    # derivatives of u in (tr, s)
     u_t, u_s, u_tt, u_ts, u_ss = 0.5 / u, 1.0 / u, -0.25 / u**3, -0.5 / u**3, -1.0 / u**3
-    # taut: W = mu (tr - 2 u + 2) + lam/2 (u - 2)^2
-    w_u = -2.0 * b.mu + b.lam * (u - 2.0)
-    taut_w = b.mu * (tr_c - 2.0 * u + 2.0) + 0.5 * b.lam * (u - 2.0) ** 2
-    taut_d = (b.mu + w_u * u_t, w_u * u_s,
-              b.lam * u_t**2 + w_u * u_tt, b.lam * u_t * u_s + w_u * u_ts, b.lam * u_s**2 + w_u * u_ss)
-    # wrinkled: W = E/2 e1^2
-    r = np.where(wrinkled, root, 1.0)
-    e_t, e_s = 0.5 * (u_t + 0.5 / r), 0.5 * (u_s - 1.0 / r)
-    e_tt, e_ts, e_ss = 0.5 * (u_tt - 0.25 / r**3), 0.5 * (u_ts + 0.5 / r**3), 0.5 * (u_ss - 1.0 / r**3)
-    y = b.youngs_modulus
-    wr_w = 0.5 * y * e1**2
-    wr_d = (y * e1 * e_t, y * e1 * e_s, y * (e_t**2 + e1 * e_tt), y * (e_t * e_s + e1 * e_ts), y * (e_s**2 + e1 * e_ss))
-    w = np.where(taut, taut_w, np.where(wrinkled, wr_w, 0.0))
-    g_t, g_s, h_tt, h_ts, h_ss = (np.where(taut, a, np.where(wrinkled, q, 0.0)) for a, q in zip(taut_d, wr_d))
-    # (tr, s) -> (tr, det): s_d = 1 / (2 s), s_dd = -1 / (4 s^3)
-    s_d, s_dd = 0.5 / s, -0.25 / s**3
+    if e2 >= -poisson_ratio * e1:  # taut: W = mu (tr - 2 u + 2) + lam/2 (u - 2)^2
+        w_u = -2.0 * mu + lam * (u - 2.0)
+        w = mu * (tr_c - 2.0 * u + 2.0) + 0.5 * lam * (u - 2.0) ** 2
+        g_t, g_s = mu + w_u * u_t, w_u * u_s
+        h_tt, h_ts, h_ss = lam * u_t**2 + w_u * u_tt, lam * u_t * u_s + w_u * u_ts, lam * u_s**2 + w_u * u_ss
+    elif e1 > 0.0:  # wrinkled: W = E/2 e1^2
+        r = root
+        e_t, e_s = 0.5 * (u_t + 0.5 / r), 0.5 * (u_s - 1.0 / r)
+        e_tt, e_ts, e_ss = 0.5 * (u_tt - 0.25 / r**3), 0.5 * (u_ts + 0.5 / r**3), 0.5 * (u_ss - 1.0 / r**3)
+        y = youngs_modulus
+        w = 0.5 * y * e1**2
+        g_t, g_s = y * e1 * e_t, y * e1 * e_s
+        h_tt, h_ts, h_ss = y * (e_t**2 + e1 * e_tt), y * (e_t * e_s + e1 * e_ts), y * (e_s**2 + e1 * e_ss)
+    else:  # slack
+        w, g_t, g_s, h_tt, h_ts, h_ss = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    s_d, s_dd = 0.5 / s, -0.25 / s**3  # (tr, s) -> (tr, det)
     return w, g_t, g_s * s_d, h_tt, h_ts * s_d, h_ss * s_d**2 + g_s * s_dd

@@ -7,26 +7,33 @@ stretch is lambda = |F e1| = sqrt(C11) and the element energy is
     E_e = A_e h_e [ W_background(C) + W_fibre(lambda, a) ]     (A_e reference area, h_e reference thickness)
 
 The energy density is written once as a function of C = (C11, C22, C12) (`material`); its first and second
-derivatives in c are written out in closed form (`material.fibre_derivatives`, `material.background_derivatives`,
-chained to c here) and held to torch autograd of the energy, branch by branch (`autograd_derivatives`,
+derivatives in c are written out in closed form (`material.fibre_point`, `material.background_point`, chained to c
+in `_point`) and held to torch autograd of the energy, branch by branch (`autograd_derivatives`,
 tests/test_membrane.py): autograd itself took 42 % of a band solve. The chain rule to node positions, which only
-involves the linear maps F = sum_a x_a B_a and C = F^T F, is written out in numpy. The 9x9 element blocks
-(`membrane_blocks`) go into the Newton system's fixed layout (`assembly`), or a sparse matrix (`membrane_tangent`).
+involves the linear maps F = sum_a x_a B_a and C = F^T F, is written out too, and the whole per-element pass
+(energy, gradient, 9x9 element blocks) is one numba-compiled loop over the elements (`_element_pass`): as numpy
+array code on a band's ~500 elements each of its ~100 array operations cost more in call overhead than in arithmetic
+(30-60 x slower, benchmarks/fem_solver_speed.py). The element blocks (`membrane_blocks`) go into the Newton system's
+fixed layout (`assembly`), or a sparse matrix (`membrane_tangent`).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
+import numba
 import numpy as np
 import scipy.sparse as sp
 import torch
 
 from shoulder_bench.authoring.fem.material import (
     Material,
-    background_derivatives,
     background_energy,
-    fibre_derivatives,
+    background_parameters,
+    background_point,
     fibre_energy,
+    fibre_parameters,
+    fibre_point,
 )
 
 
@@ -61,6 +68,12 @@ class Membrane:
     def n_nodes(self) -> int:
         return len(self.nodes)
 
+    @cached_property
+    def shape_gradients(self) -> np.ndarray:
+        """B (T, 3 nodes, 2): F = sum_a x_a B_a."""
+        base = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
+        return np.einsum("ak,tkl->tal", base, self.dm_inv)
+
 
 def energy_density(c, activation: float, material: Material):
     """Energy per reference volume from c = (C11, C22, C12) per element (T, 3), numpy or torch; C11 is along the
@@ -83,52 +96,114 @@ def autograd_derivatives(c: np.ndarray, activation: float, material: Material):
     return w.detach().numpy(), dw.detach().numpy(), d2w.permute(1, 0, 2).numpy()
 
 
-_D2_DET = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -2.0]])  # d2(det C)/dc2
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _point(c0, c1, c2, activation, fib, bg, dw, d2w):
+    """W at c = (C11, C22, C12), its gradient into dw (3,) and its Hessian into d2w (3, 3): the background through
+    tr C and det C (d tr/dc = (1, 1, 0), d det/dc = (C22, C11, -2 C12)), the fibre through lambda = sqrt(C11)."""
+    wb, w_t, w_d, w_tt, w_td, w_dd = background_point(c0 + c1, c0 * c1 - c2 * c2, bg[0], bg[1], bg[2], bg[3])
+    lam = np.sqrt(c0)
+    wf, f1, f2 = fibre_point(lam, activation, fib[0], fib[1], fib[2], fib[3], fib[4], fib[5])
+    d0, d1, d2 = c1, c0, -2.0 * c2
+    dw[0] = w_t + w_d * d0 + 0.5 * f1 / lam
+    dw[1] = w_t + w_d * d1
+    dw[2] = w_d * d2
+    tv = (1.0, 1.0, 0.0)
+    dv = (d0, d1, d2)
+    for i in range(3):
+        for j in range(3):
+            d2w[i, j] = w_tt * tv[i] * tv[j] + w_td * (tv[i] * dv[j] + dv[i] * tv[j]) + w_dd * dv[i] * dv[j]
+    d2w[0, 1] += w_d  # d2(det C)/dc2
+    d2w[1, 0] += w_d
+    d2w[2, 2] -= 2.0 * w_d
+    d2w[0, 0] += 0.25 * (f2 - f1 / lam) / lam**2
+    return wb + wf
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _derivatives_at(c, activation, fib, bg):
+    n = len(c)
+    w, dw, d2w = np.empty(n), np.empty((n, 3)), np.empty((n, 3, 3))
+    for t in range(n):
+        w[t] = _point(c[t, 0], c[t, 1], c[t, 2], activation, fib, bg, dw[t], d2w[t])
+    return w, dw, d2w
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _element_pass(x, triangles, b, vol, activation, fib, bg, g, he):
+    """The membrane's energy (returned), its gradient added into g (3N,), element by element in order, and with
+    `he` of shape (T, 9, 9) (not (0, 9, 9)) each element's Hessian block over its 9 dofs: the chain rule through
+    F = sum_a x_a B_a, C = F^T F, dc/dx_a (`dc`), and the geometric part sum_i W_i d2c_i/dx_a dx_b (a multiple of
+    the 3x3 identity)."""
+    hessian = he.shape[0] > 0
+    f1, f2 = np.empty(3), np.empty(3)
+    dw, d2w, dc, ge = np.empty(3), np.empty((3, 3)), np.empty((3, 3, 3)), np.empty(9)
+    energy = 0.0
+    for t in range(len(triangles)):
+        for k in range(3):
+            f1[k] = x[triangles[t, 0], k] * b[t, 0, 0] + x[triangles[t, 1], k] * b[t, 1, 0] \
+                + x[triangles[t, 2], k] * b[t, 2, 0]
+            f2[k] = x[triangles[t, 0], k] * b[t, 0, 1] + x[triangles[t, 1], k] * b[t, 1, 1] \
+                + x[triangles[t, 2], k] * b[t, 2, 1]
+        c0 = f1[0] * f1[0] + f1[1] * f1[1] + f1[2] * f1[2]
+        c1 = f2[0] * f2[0] + f2[1] * f2[1] + f2[2] * f2[2]
+        c2 = f1[0] * f2[0] + f1[1] * f2[1] + f1[2] * f2[2]
+        energy += vol[t] * _point(c0, c1, c2, activation, fib, bg, dw, d2w)
+        for a in range(3):
+            for k in range(3):
+                dc[a, 0, k] = 2.0 * b[t, a, 0] * f1[k]
+                dc[a, 1, k] = 2.0 * b[t, a, 1] * f2[k]
+                dc[a, 2, k] = b[t, a, 0] * f2[k] + b[t, a, 1] * f1[k]
+                ge[3 * a + k] = vol[t] * (dw[0] * dc[a, 0, k] + dw[1] * dc[a, 1, k] + dw[2] * dc[a, 2, k])
+                g[3 * triangles[t, a] + k] += ge[3 * a + k]
+        if not hessian:
+            continue
+        for a in range(3):
+            for q in range(3):
+                s = 2.0 * dw[0] * b[t, a, 0] * b[t, q, 0] + 2.0 * dw[1] * b[t, a, 1] * b[t, q, 1] \
+                    + dw[2] * (b[t, a, 0] * b[t, q, 1] + b[t, a, 1] * b[t, q, 0])
+                for k in range(3):
+                    for m in range(3):
+                        h = 0.0
+                        for i in range(3):
+                            h += dc[a, i, k] * (d2w[i, 0] * dc[q, 0, m] + d2w[i, 1] * dc[q, 1, m]
+                                                + d2w[i, 2] * dc[q, 2, m])
+                        he[t, 3 * a + k, 3 * q + m] = vol[t] * (h + s if k == m else h)
+    return energy
 
 
 class ElementKernel:
-    """Energy density W(C11, C22, C12) and its first and second derivatives, batched over elements, in closed form:
-    W = W_background(tr C, det C) + W_fibre(sqrt(C11)), each piece's derivatives from `material`, chained through
-    d tr/dc = (1, 1, 0), d det/dc = (C22, C11, -2 C12) and d2 det/dc2 (`_D2_DET`). The chain rule to node positions
-    (C = F^T F, F = sum_a x_a B_a) is done by hand below."""
+    """The energy density W(C11, C22, C12) (`energy`, numpy or torch: `energy_density`) and, compiled, its first and
+    second derivatives in closed form: W = W_background(tr C, det C) + W_fibre(sqrt(C11)), each piece's derivatives
+    from `material` (`background_point`, `fibre_point`), chained through d tr/dc = (1, 1, 0), d det/dc = (C22, C11,
+    -2 C12) and d2 det/dc2. `forces_energy` and `blocks` go on by the chain rule to the nodes (C = F^T F,
+    F = sum_a x_a B_a), all in one compiled pass over the elements (`_element_pass`)."""
 
     def __init__(self, material: Material):
         self.material = material
+        self.fib = np.array(fibre_parameters(material.fibre), float)
+        self.bg = np.array(background_parameters(material.background), float)
 
     def energy(self, c: np.ndarray, activation: float) -> np.ndarray:
         with np.errstate(invalid="ignore", divide="ignore"):  # a collapsed element: NaN, as autograd gave
             return energy_density(c, activation, self.material)
 
     def derivatives(self, c: np.ndarray, activation: float, second: bool = True):
-        with np.errstate(invalid="ignore", divide="ignore"):  # a collapsed element (a line search's trial point):
-            return self._derivatives(c, activation, second)  # NaN, never accepted (solver._line_search)
+        """(W, dW/dc, d2W/dc2) per element of c (T, 3); a collapsed element gives NaN (a line search's trial point,
+        never accepted: solver._line_search)."""
+        w, dw, d2w = _derivatives_at(np.ascontiguousarray(c, float), float(activation), self.fib, self.bg)
+        return w, dw, d2w if second else None
 
-    def _derivatives(self, c: np.ndarray, activation: float, second: bool):
-        c0, c1, c2 = c[:, 0], c[:, 1], c[:, 2]
-        w, w_t, w_d, w_tt, w_td, w_dd = background_derivatives(c0 + c1, c0 * c1 - c2**2, self.material.background)
-        lam = np.sqrt(c0)
-        w_f, f1, f2 = fibre_derivatives(lam, activation, self.material.fibre)
-        t = np.array([1.0, 1.0, 0.0])
-        d = np.stack([c1, c0, -2.0 * c2], axis=1)
-        dw = w_t[:, None] * t + w_d[:, None] * d
-        dw[:, 0] += 0.5 * f1 / lam
-        if not second:
-            return w + w_f, dw, None
-        td = t[None, :, None] * d[:, None, :]
-        d2w = (w_tt[:, None, None] * np.outer(t, t) + w_td[:, None, None] * (td + td.transpose(0, 2, 1))
-               + w_dd[:, None, None] * d[:, :, None] * d[:, None, :] + w_d[:, None, None] * _D2_DET)
-        d2w[:, 0, 0] += 0.25 * (f2 - f1 / lam) / lam**2
-        return w + w_f, dw, d2w
-
-
-def _shape_gradients(mem: Membrane) -> np.ndarray:
-    """B (T, 3 nodes, 2): F = sum_a x_a B_a."""
-    base = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
-    return np.einsum("ak,tkl->tal", base, mem.dm_inv)
+    def pass_(self, mem: Membrane, x: np.ndarray, activation: float, hessian: bool):
+        """(energy, gradient (3N,), element Hessians (T, 9, 9) or None) of `mem` at x."""
+        g = np.zeros(3 * mem.n_nodes)
+        he = np.empty((len(mem.triangles) if hessian else 0, 9, 9))
+        e = _element_pass(np.ascontiguousarray(x, float), mem.triangles, mem.shape_gradients,
+                          mem.area * mem.thickness, float(activation), self.fib, self.bg, g, he)
+        return e, g, he if hessian else None
 
 
 def membrane_kinematics(mem: Membrane, x: np.ndarray):
-    b = _shape_gradients(mem)
+    b = mem.shape_gradients
     f = np.einsum("tai,tak->tik", x[mem.triangles], b)  # (T, 3, 2)
     f1, f2 = f[:, :, 0], f[:, :, 1]
     c = np.stack([(f1 * f1).sum(1), (f2 * f2).sum(1), (f1 * f2).sum(1)], axis=1)
@@ -140,22 +215,15 @@ def membrane_energy(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activat
     return float(np.sum(mem.area * mem.thickness * kernel.energy(c, activation)))
 
 
-def _element_gradient(b, f1, f2, dw, vol):
-    # dc/dx_a: (T, a, 3 comps of c, 3 coords)
-    dc = np.stack([2.0 * b[:, :, 0, None] * f1[:, None], 2.0 * b[:, :, 1, None] * f2[:, None],
-                   b[:, :, 0, None] * f2[:, None] + b[:, :, 1, None] * f1[:, None]], axis=2)
-    ge = vol[:, None, None] * np.einsum("ti,taid->tad", dw, dc)
-    return dc, ge
-
-
 def membrane_forces(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float) -> np.ndarray:
     """Gradient of the membrane energy w.r.t. node positions, (N, 3) (minus the internal nodal forces)."""
-    b, f1, f2, c = membrane_kinematics(mem, x)
-    _, dw, _ = kernel.derivatives(c, activation, second=False)
-    _, ge = _element_gradient(b, f1, f2, dw, mem.area * mem.thickness)
-    g = np.zeros((mem.n_nodes, 3))
-    np.add.at(g, mem.triangles.reshape(-1), ge.reshape(-1, 3))
-    return g
+    return membrane_forces_energy(mem, kernel, x, activation)[0]
+
+
+def membrane_forces_energy(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float):
+    """(`membrane_forces`, the energy): one compiled pass gives both."""
+    e, g, _ = kernel.pass_(mem, x, activation, hessian=False)
+    return g.reshape(-1, 3), e
 
 
 def element_dofs(mem: Membrane) -> np.ndarray:
@@ -163,29 +231,9 @@ def element_dofs(mem: Membrane) -> np.ndarray:
     return (3 * mem.triangles[:, :, None] + np.arange(3)).reshape(-1, 9)  # (T, 9)
 
 
-def _material_blocks(d2w: np.ndarray, dc: np.ndarray) -> np.ndarray:
-    """The material part of the element Hessians, sum_ij W_ij dc_i/dx_a (dc_j/dx_b)^T, (T, 3, 3, 3, 3), as batched
-    (9 x 3)(3 x 3)(3 x 9) matrix products (the one-call einsum "tij,taid,tbje->tadbe" is the same to rounding and ~25 x
-    slower: benchmarks/fem_solver_speed.py)."""
-    t = len(dc)
-    return (dc.transpose(0, 1, 3, 2).reshape(t, 9, 3) @ d2w @ dc.transpose(0, 2, 1, 3).reshape(t, 3, 9)).reshape(
-        t, 3, 3, 3, 3)
-
-
 def membrane_blocks(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float):
     """(energy, gradient (3N,), element Hessians (T, 9, 9) over `element_dofs`)."""
-    b, f1, f2, c = membrane_kinematics(mem, x)
-    w, dw, d2w = kernel.derivatives(c, activation)
-    vol = mem.area * mem.thickness
-    dc, ge = _element_gradient(b, f1, f2, dw, vol)
-    h_mat = _material_blocks(d2w, dc)
-    # geometric part: sum_i W_i d2c_i/dx_a dx_b (a multiple of the 3x3 identity)
-    s = (2.0 * dw[:, 0, None, None] * b[:, :, None, 0] * b[:, None, :, 0]
-         + 2.0 * dw[:, 1, None, None] * b[:, :, None, 1] * b[:, None, :, 1]
-         + dw[:, 2, None, None] * (b[:, :, None, 0] * b[:, None, :, 1] + b[:, :, None, 1] * b[:, None, :, 0]))
-    he = vol[:, None, None, None, None] * (h_mat + s[:, :, None, :, None] * np.eye(3)[None, None, :, None, :])
-    g = np.bincount(element_dofs(mem).ravel(), weights=ge.reshape(-1, 9).ravel(), minlength=3 * mem.n_nodes)
-    return float(np.sum(vol * w)), g, he.reshape(-1, 9, 9)
+    return kernel.pass_(mem, x, activation, hessian=True)
 
 
 def membrane_tangent(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float):

@@ -30,6 +30,7 @@ from shoulder_bench.authoring.fem.membrane import (
     membrane_blocks,
     membrane_energy,
     membrane_forces,
+    membrane_forces_energy,
 )
 
 
@@ -127,7 +128,7 @@ class MuscleProblem:
         self.stalled = 0  # solves accepted at stall_factor * tol (reported in the table meta)
 
     # -- energy -----------------------------------------------------------------------------------------------
-    def _contact(self, x: np.ndarray):
+    def _contact(self, x: np.ndarray, blocks: bool = True):
         """C2 penalty: e(g) = kappa A g^3 / (6 delta) for penetration g < delta, quadratic beyond (g: the radius less
         the distance from the centre, or from the axis for a cylinder).
 
@@ -146,12 +147,14 @@ class MuscleProblem:
         small = gap < dl
         e_n = np.where(small, k * gap**3 / (6 * dl), k * (dl**2 / 6 + dl * (gap - dl) / 2 + (gap - dl) ** 2 / 2))
         de = np.where(small, k * gap**2 / (2 * dl), k * (dl / 2 + gap - dl))
-        d2e = np.where(small, k * gap / dl, k)
         nrm = d / np.maximum(r, 1e-12)[:, None]
         g = -de[:, None] * nrm
+        if not blocks:  # the line search's trial points need no tangent
+            return float(e_n.sum()), g.ravel(), None
+        d2e = np.where(small, k * gap / dl, k)
         nn = nrm[:, :, None] * nrm[:, None, :]
-        blocks = d2e[:, None, None] * nn - (de / np.maximum(r, 1e-12))[:, None, None] * (proj - nn)
-        return float(e_n.sum()), g.ravel(), blocks
+        node_blocks = d2e[:, None, None] * nn - (de / np.maximum(r, 1e-12))[:, None, None] * (proj - nn)
+        return float(e_n.sum()), g.ravel(), node_blocks
 
     def newton_system(self, x: np.ndarray, activation: float) -> tuple[float, FreeMatrix]:
         """(energy, the tangent stiffness on the free dofs): membrane, regularisation and contact."""
@@ -171,7 +174,7 @@ class MuscleProblem:
     def energy(self, x: np.ndarray, activation: float) -> float:
         u = (x - self.X).ravel()
         return membrane_energy(self.mem, self.kernel, x, activation) + 0.5 * float(u @ (self.reg_matrix @ u)) \
-            + self._contact(x)[0]
+            + self._contact(x, blocks=False)[0]
 
     # -- boundary conditions and predictor -------------------------------------------------------------------------
     def insertion_positions(self, theta_deg: float) -> np.ndarray:
@@ -190,8 +193,15 @@ class MuscleProblem:
 
     # -- Newton ------------------------------------------------------------------------------------------------------
     def gradient(self, x: np.ndarray, activation: float) -> np.ndarray:
+        return self.gradient_energy(x, activation)[0]
+
+    def gradient_energy(self, x: np.ndarray, activation: float) -> tuple[np.ndarray, float]:
+        """(grad E, E) from one pass (the line search's trial points need both)."""
         u = (x - self.X).ravel()
-        return membrane_forces(self.mem, self.kernel, x, activation).ravel() + self.reg_matrix @ u + self._contact(x)[1]
+        gm, em = membrane_forces_energy(self.mem, self.kernel, x, activation)
+        ru = self.reg_matrix @ u
+        ec, gc, _ = self._contact(x, blocks=False)
+        return gm.ravel() + ru + gc, em + 0.5 * float(u @ ru) + ec
 
     def newton(self, x: np.ndarray, activation: float) -> tuple[np.ndarray, int]:
         """Solve grad E = 0 for the free nodes from x (fixed nodes already placed). Returns (x, iterations).
@@ -240,13 +250,14 @@ class MuscleProblem:
         while t >= 1e-3:
             xt = x.copy()
             xt.reshape(-1)[fd] += t * p
-            rt = self.gradient(xt, activation)[fd]
+            gt, et = self.gradient_energy(xt, activation)
+            rt = gt[fd]
             if not np.all(np.isfinite(rt)):
                 t *= 0.5
                 continue
             if np.linalg.norm(rt) <= (1.0 - 1e-4 * t) * rn:
                 return xt, rt
-            if slope < 0.0 and self.energy(xt, activation) <= e + 1e-4 * t * slope:
+            if slope < 0.0 and et <= e + 1e-4 * t * slope:
                 return xt, rt  # energy descent also counts: contact and wrinkling switches can raise the residual
             t *= 0.5
         return None
