@@ -4,13 +4,13 @@
         [--elements T ...] [--kernels] [--layouts A B] [--max-iter A B]
 
 1. How the sheets' Newton systems are factorised (`MuscleProblem.layout`, `assembly.LAYOUTS`; `--layouts A B`,
-   default COLAMD NATURAL): SuperLU with COLAMD (SciPy's default, the length-keyed sheets') or the natural order, or
-   LAPACK's banded LU (BANDED, the footprint sheets'). For each band tendon, N of its table's grid poses (evenly
-   spaced through the grid) solved as `fem build --bands` solves them (`bands.solve_poses`, full sheets); for
-   --full-tendon, its length-keyed sheet as `fem build --full` solves it (every length and activation of its table).
-   Each with either layout, alternating, `--repeats` times: the best wall time of each, their ratio, and the largest
-   difference between the two layouts' results (moment arms in mm; forces in N), which is rounding if the layouts
-   take the same Newton steps.
+   default COLAMD NATURAL): SuperLU with COLAMD (SciPy's default) or the natural order, LAPACK's banded LU
+   (BANDED_LU), or its banded Cholesky where positive definite, else LU (BANDED, in use). For each band tendon, N of
+   its table's grid poses (evenly spaced through the grid) solved as `fem build --bands` solves them
+   (`bands.solve_poses`, full sheets); for --full-tendon, its length-keyed sheet as `fem build --full` solves it
+   (every length and activation of its table). Each with either layout, alternating, `--repeats` times: the best wall
+   time of each, their ratio, and the largest difference between the two layouts' results (moment arms in mm; forces
+   in N), which is rounding if the layouts take the same Newton steps.
 2. The element kernels of every tangent, on T elements (`--elements`: 480, a full footprint band; 2,048, a 33 x 33
    length-keyed sheet): d2W/dc2 by autograd in one batched reverse pass against three passes; the energy's
    derivatives in closed form, compiled (`ElementKernel.derivatives`), against autograd

@@ -8,11 +8,12 @@ import warnings
 
 import numpy as np
 import pytest
+import scipy.linalg as sla
 import scipy.sparse as sp
 
 from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem import footprint, full
-from shoulder_bench.authoring.fem.assembly import LAYOUTS, Assembly
+from shoulder_bench.authoring.fem.assembly import BANDED, LAYOUTS, Assembly
 from shoulder_bench.authoring.fem.membrane import element_dofs, membrane_tangent
 from shoulder_bench.authoring.fem.v2_sheet import SheetProblem
 
@@ -55,9 +56,35 @@ def test_the_assembled_matrix_is_the_sliced_tangent_and_solves_as_it(layout, pro
         for shift in (0.0, 0.01 * scale):
             want = np.linalg.solve(h0 + shift * np.eye(len(h0)), rhs)
             np.testing.assert_allclose(h.solve(rhs, shift), want, rtol=0, atol=1e-9 * np.abs(want).max())
-        if layout == "BANDED":  # the sheets number their nodes row by row: banded as numbered, symmetric pattern
+        if layout in BANDED:  # the sheets number their nodes row by row: banded as numbered, symmetric pattern
             assembly = problem._assembly()
             assert assembly.lower == assembly.upper < len(h0) // 3
+
+
+def test_banded_solves_by_cholesky_where_positive_definite_and_by_lu_where_not(problems, monkeypatch):
+    """BANDED: LAPACK's banded Cholesky on a positive definite matrix, its banded LU on an indefinite one (a shift
+    below the smallest eigenvalue), each equal to a dense solve; BANDED_LU: LU alone."""
+    problem, x = problems[0]
+    monkeypatch.setattr(type(problem), "layout", "BANDED")
+    _, h = problem.newton_system(x, 1.0)
+    h0 = h.sparse().toarray()
+    eig = np.linalg.eigvalsh(h0)
+    rhs = np.random.default_rng(2).normal(size=len(h0))
+    calls = []
+    for name in ("solveh_banded", "solve_banded"):
+        real = getattr(sla, name)
+        monkeypatch.setattr(sla, name, lambda *a, real=real, name=name, **k: calls.append(name) or real(*a, **k))
+    for shift, used in ((1e-3 * eig[-1] - eig[0], ["solveh_banded"]),
+                        (-0.5 * (eig[0] + eig[-1]), ["solveh_banded", "solve_banded"])):
+        calls.clear()
+        want = np.linalg.solve(h0 + shift * np.eye(len(h0)), rhs)
+        np.testing.assert_allclose(h.solve(rhs, shift), want, rtol=0, atol=1e-8 * np.abs(want).max())
+        assert calls == used
+    monkeypatch.setattr(type(problem), "layout", "BANDED_LU")
+    _, h = problem.newton_system(x, 1.0)
+    calls.clear()
+    h.solve(rhs, 1e-3 * eig[-1] - eig[0])
+    assert calls == ["solve_banded"]
 
 
 def test_a_singular_matrix_solves_to_none_or_not_finite_and_a_bad_layout_is_refused(problems):

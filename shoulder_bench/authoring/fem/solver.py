@@ -94,9 +94,10 @@ class MuscleProblem:
     """One muscle sheet, ready to solve at any (theta, activation)."""
 
     # How the Newton systems are factorised (`assembly.LAYOUTS`): every sheet numbers its nodes row by row across the
-    # fibres (`shells.grid_triangles`), so its tangent is banded as numbered and LAPACK's banded LU solves it faster
-    # than SuperLU in any column order, with the same steps to rounding (`python benchmarks/fem_solver_speed.py
-    # --layouts COLAMD BANDED`; docs/fem.md "Newton")
+    # fibres (`shells.grid_triangles`), so its tangent is banded as numbered and LAPACK's banded solvers (Cholesky
+    # where positive definite, else LU) solve it faster than SuperLU in any column order, with the same steps to
+    # rounding (`python benchmarks/fem_solver_speed.py --layouts COLAMD BANDED`, `--layouts BANDED_LU BANDED`;
+    # docs/fem.md "Newton")
     layout = "BANDED"
 
     def __init__(self, shell: dict, material: Material | None = None, settings: SolverSettings | None = None,
