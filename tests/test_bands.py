@@ -254,6 +254,28 @@ def test_poses_solved_in_processes_equal_those_solved_in_one(monkeypatch):
     np.testing.assert_array_equal(two["poses_deg"], poses)
 
 
+def test_a_parallel_build_keeps_one_pool_and_saves_the_chunks_it_has_finished(monkeypatch, tmp_path):
+    """`fem build --bands --jobs 2`: one pool of processes for the tendon's poses, saving the chunks finished so far
+    each time SAVE_EVERY more poses are done (in whatever order they finish), and the table a single process builds."""
+    monkeypatch.setattr(bands, "LEAST_ENERGY", ())  # the ramp alone on the tasks' grid: quick
+    monkeypatch.setattr(bands, "REFINE", {})
+    monkeypatch.setattr(bands, "CHUNK", 100)
+    monkeypatch.setattr(bands, "SAVE_EVERY", 300)
+    saved, real = [], bands.save_partial
+    monkeypatch.setattr(bands, "save_partial", lambda path, digest, known, *a: saved.append(known["poses"].copy())
+                        or real(path, digest, known, *a))
+    bands.build(("pec1",), coarse=True, out=tmp_path / "two", jobs=2, quiet=True)
+    grid = {tuple(p) for p in bands.grid_poses("pec1")}  # 840 poses: chunks of 100, the last of 40
+    assert [len(p) for p in saved] == [300, 600]
+    first, second = ({tuple(p) for p in poses} for poses in saved)
+    assert len(second) == 600 and first < second < grid
+    assert not bands.partial_path("pec1", tmp_path / "two").exists()
+    bands.build(("pec1",), coarse=True, out=tmp_path / "one", quiet=True)
+    two, one = (bands.BandTable(bands.table_path("pec1", tmp_path / d)).arrays for d in ("two", "one"))
+    for k in ("moment_arm_m", "mjcf_moment_arm_m", "tension_N", "contact_N", "unsolved"):
+        np.testing.assert_allclose(two[k], one[k], rtol=1e-9, atol=1e-12)
+
+
 def test_a_refined_grid_reuses_the_poses_its_previous_table_solved(cell, monkeypatch, tmp_path, capsys):
     """A build onto a finer grid takes the poses the stale table already holds (built from the same inputs on its own
     grid, so each pose's equilibrium is the same) and solves only the new ones: the table equals one built from

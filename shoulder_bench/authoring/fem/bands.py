@@ -7,19 +7,15 @@ The reduced-order scheme. A tendon's generalised force about (plane, elevation, 
     F(L_MT(q), a) * (r_MJCF(q) + c(q)),
 
 F the length-keyed FEM table's force (`fem.full`: the sheet with its tendon in series), r_MJCF = -ten_J S the MJCF
-tendon's moment arms (exact at every pose, as MuJoCo's tendon transmission applies them), and c the footprint sheet's
-correction to them: the taut band's moment arms (`footprint.FootprintSheet` with rest="pose": the sheet over the
-tendon's real footprint, stress-free in its draped shape at each pose, activated there, its line of action solved
-with contact) less the MJCF arms, tabled on a pose grid and interpolated trilinearly: the tasks' grid
-(`full_arm.pose_grid`: plane every 15 deg, elevation 10, rotation 15; 840 poses) or, for the tendons in REFINE, that
-grid with its step divided, in every coordinate or per coordinate (every pose of the tasks' grid is one of it;
-`band_lines.BandLines` reads all tables on one grid that nests them, which leaves each one's trilinear reading as it
-is). What is exploited: that the band's line of action departs
-smoothly from the MJCF path's (the MJCF arms themselves turn fast near high elevation, 16 % of peak between the
-grid's poses for ssp, and the band's with them: a table of the band's own arms would miss by as much, the
-correction by < 1 %; docs/fem.md). The activation: the band is solved at a = 1 here; below it its line moves (by
-up to 1.4 mm at sampled poses, `benchmarks/band_activation.py`), which `band_levels` tables for the tendons that need
-it (docs/fem.md "Taut bands").
+tendon's moment arms (exact, as MuJoCo's tendon transmission applies them), and c the footprint sheet's correction:
+the taut band's moment arms (`footprint.FootprintSheet`, rest="pose": the sheet over the tendon's real footprint,
+stress-free in its draped shape at each pose, activated there, solved with contact) less the MJCF arms, on a pose grid
+read trilinearly: the tasks' grid (`full_arm.pose_grid`: plane every 15 deg, elevation 10, rotation 15; 840 poses)
+or, for the tendons in REFINE, that grid with its step divided (`band_lines.BandLines` reads all tables on one grid
+that nests them, leaving each one's trilinear reading as it is). Exploited: the band's line of action departs
+smoothly from the MJCF path's (the MJCF arms turn fast near high elevation, 16 % of peak between grid poses for ssp; a
+table of the band's own arms would miss by as much, the correction by < 1 %; docs/fem.md). The band is solved at
+a = 1; below it its line moves (up to 1.4 mm, `benchmarks/band_activation.py`), which `band_levels` tables where needed.
 
 Tendons: those whose footprint sheet is resolved (FOOTPRINT_TENDONS). ssc is left out: its 40 mm sheet on the parent's
 17 mm wrap sphere has several equilibria, unresolved until its contact surface is the humeral head.
@@ -27,21 +23,16 @@ Tendons: those whose footprint sheet is resolved (FOOTPRINT_TENDONS). ssc is lef
 Which equilibrium: the band's activation ramped from rest at the pose (`FootprintSheet.solve`); for the tendons in
 LEAST_ENERGY, whose sheet has more than one equilibrium at some poses (`benchmarks/band_refine.py --branches`), the
 least-energy of that one and those Newton reaches at the pose from the ramp's at the pose +- PROBE_FRACTION of the
-tasks' step along each coordinate, the first LEAST_ENERGY[t] of those six starts (`least_energy`): still the pose's
-alone, not the way there.
+tasks' step along each coordinate, the first LEAST_ENERGY[t] of those six starts (`least_energy`): the pose's alone.
+A grid pose without an equilibrium (e.g. tma's corner, plane 80-90, elevation 140, rotation -45) takes the mean of its
+solved neighbours' correction, listed in the table (`unsolved`, meta); at most MAX_UNSOLVED of the grid may be.
 
-A grid pose where the band finds no equilibrium (tma at plane 80-90, elevation 140, rotation -45) takes the mean of its
-solved neighbours' correction; such poses are listed in the table (`unsolved`, meta) and at most MAX_UNSOLVED of
-the grid may be.
-
-Caching and resuming: each table carries its input hash (the model file's bytes, the footprint width, the sheet
-resolution, material, solver settings, the grid, CODE_VERSION); a build solves only tendons whose table is missing or
-stale, writes each atomically when done, and holds the folder's lock while it runs. A stale table built from the same
-inputs on another grid (a REFINE change) lends the poses it holds to the new grid (`reusable`), so a grid refined
-from it solves only its new poses. While it solves, a build saves the poses solved so far every SAVE_EVERY
-(`partial_path`, with the input hash); an interrupted build resumes from them (`resumed`) and removes the file once
-the table is written. `jobs` processes solve a tendon's poses (and the verify's held-out ones, in
-`band_verify`), CHUNK at a time: each pose's equilibrium is its own, so the tables do not depend on it.
+Caching and resuming: each table carries its input hash (model file bytes, footprint width, resolution, material,
+solver settings, grid, CODE_VERSION); a build solves only missing or stale tables, writes each atomically, holds the
+folder's lock, and takes from a stale table of the same inputs on another grid (a REFINE change) the poses it holds
+(`reusable`). It saves the poses solved so far every SAVE_EVERY (`partial_path`, with the input hash) and an
+interrupted build resumes from them (`resumed`). `jobs` processes, one pool per tendon, solve its poses (and the
+verify's, `band_verify`) CHUNK at a time: each pose's equilibrium is its own, so the tables do not depend on it.
 """
 from __future__ import annotations
 
@@ -190,10 +181,12 @@ PARTIAL = ("poses", "f0_N") + SOLVED  # what a checkpoint holds (beside its inpu
 
 
 def _solve_saving(tendon: str, poses: np.ndarray, resolution: str, progress, pose, jobs: int, save) -> dict:
-    """`solve_poses` of `poses`, SAVE_EVERY at a time when `save` is given, save(the poses solved so far as a `known`
-    dict) after each block."""
+    """`solve_poses` of `poses`, save(the poses solved so far as a `known` dict) after each SAVE_EVERY if `save` is
+    given; `jobs` > 1: one pool for them all (a pool per block idled a core while the block's last chunk ran)."""
     if save is None:
         return solve_poses(tendon, poses, resolution, progress, pose, jobs)
+    if jobs > 1 and len(poses) > CHUNK:
+        return _solve_parallel(tendon, poses, resolution, progress, jobs, (), save)
     parts = []
     for i in range(0, len(poses), SAVE_EVERY):
         parts.append(solve_poses(tendon, poses[i:i + SAVE_EVERY], resolution, progress, pose, jobs))
@@ -300,9 +293,11 @@ def solve_poses(tendon: str, poses: np.ndarray, resolution: str, progress=None,
 CHUNK = 20  # poses a worker process solves at a time (the sheet is set up anew for each chunk: ~0.02 s)
 
 
-def _solve_parallel(tendon: str, poses: np.ndarray, resolution: str, progress, jobs: int, activations) -> dict:
+def _solve_parallel(tendon: str, poses: np.ndarray, resolution: str, progress, jobs: int, activations,
+                    save=None) -> dict:
+    """`solve_poses` in `jobs` processes, CHUNK poses a task; save(the chunks done as a `known` dict) if given."""
     chunks = [poses[i:i + CHUNK] for i in range(0, len(poses), CHUNK)]
-    parts = [None] * len(chunks)
+    parts, unsaved = [None] * len(chunks), 0
     with ProcessPoolExecutor(max_workers=jobs, initializer=worker_init) as pool:
         futures = {pool.submit(solve_poses, tendon, c, resolution, activations=activations): k
                    for k, c in enumerate(chunks)}
@@ -311,6 +306,11 @@ def _solve_parallel(tendon: str, poses: np.ndarray, resolution: str, progress, j
                 parts[futures[done]] = done.result()
                 if progress is not None:
                     progress(len(chunks[futures[done]]))
+                unsaved += len(chunks[futures[done]])
+                if save is not None and unsaved >= SAVE_EVERY:
+                    done_k = [k for k, part in enumerate(parts) if part is not None]
+                    save(dict(_joined([parts[k] for k in done_k]), poses=np.concatenate([chunks[k] for k in done_k])))
+                    unsaved = 0
         except BaseException:  # an interrupt or a failed chunk: drop the chunks not started rather than wait for them
             pool.shutdown(cancel_futures=True)
             raise
