@@ -138,6 +138,16 @@ def test_an_unsolved_grid_pose_takes_its_solved_neighbours_correction(cell, monk
     np.testing.assert_array_equal(got[1, 1, 0], np.mean([field[0, 1, 0], field[1, 0, 0], field[1, 2, 0],
                                                          field[1, 1, 1]], axis=0))
     np.testing.assert_array_equal(got[~unsolved], field[~unsolved])
+    cluster = unsolved.copy()  # the pose and all its neighbours: they first, from theirs, then it from them
+    for j in ((0, 1, 0), (1, 0, 0), (1, 2, 0), (1, 1, 1)):
+        cluster[j] = True
+    got = bands.neighbours_mean(field, cluster)
+    np.testing.assert_array_equal(got[0, 1, 0], np.mean([field[0, 0, 0], field[0, 2, 0], field[0, 1, 1]], axis=0))
+    np.testing.assert_allclose(got[1, 1, 0], np.mean([got[j] for j in ((0, 1, 0), (1, 0, 0), (1, 2, 0), (1, 1, 1))],
+                                                     axis=0), rtol=1e-15)
+    np.testing.assert_array_equal(got[~cluster], field[~cluster])
+    with pytest.raises(RuntimeError, match="no solved grid pose"):
+        bands.neighbours_mean(field, np.ones_like(unsolved))
     from shoulder_bench.authoring.fem.footprint import FootprintSheet
     from shoulder_bench.authoring.fem.solver import NoConvergence
 

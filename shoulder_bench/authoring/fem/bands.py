@@ -336,19 +336,19 @@ def least_energy(tendon: str, poses: np.ndarray, resolution: str, progress=None,
 
 def neighbours_mean(field: np.ndarray, unsolved: np.ndarray) -> np.ndarray:
     """`field` (grid shape + (3,)) where each unsolved grid pose takes the mean of its solved neighbours' values (one
-    step along each coordinate)."""
-    out = field.copy()
-    for idx in zip(*np.nonzero(unsolved)):
-        near = []
-        for axis in range(unsolved.ndim):
-            for step in (-1, 1):
-                j = list(idx)
-                j[axis] += step
-                if 0 <= j[axis] < unsolved.shape[axis] and not unsolved[tuple(j)]:
-                    near.append(field[tuple(j)])
-        if not near:
-            raise RuntimeError(f"grid pose {idx}: no solved neighbour to take its correction from")
-        out[idx] = np.mean(near, axis=0)
+    step along each coordinate); a cluster of unsolved poses (tma's corner) in rounds, from its edge inward."""
+    out, todo = field.copy(), unsolved.copy()
+    while todo.any():
+        filled = {}
+        for idx in zip(*np.nonzero(todo)):
+            near = [out[j] for j in (tuple(np.add(idx, step * np.eye(todo.ndim, dtype=int)[axis]))
+                                     for axis in range(todo.ndim) for step in (-1, 1))
+                    if all(0 <= k < n for k, n in zip(j, todo.shape)) and not todo[j]]
+            filled.update({idx: np.mean(near, axis=0)} if near else {})
+        if not filled:
+            raise RuntimeError("no solved grid pose to take the unsolved poses' correction from")
+        for idx, value in filled.items():
+            out[idx], todo[idx] = value, False
     return out
 
 
