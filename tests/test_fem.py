@@ -398,3 +398,36 @@ def test_the_line_search_never_accepts_a_point_whose_residual_is_not_finite(monk
     x, _ = p.newton(start.copy(), 1.0)
     assert collapsed and np.all(np.isfinite(x))
     np.testing.assert_allclose(x, solved, atol=1e-6)
+
+
+@pytest.mark.parametrize("axis", [None, (0.6, 0.0, 0.8)])
+def test_the_contact_forces_and_blocks_are_the_penalty_energys_derivatives(axis):
+    """`MuscleProblem._contact` (compiled) against central differences of its energy, on a sphere and a cylinder, with
+    nodes clear of the surface, inside its cubic start (penetration below delta) and deeper (quadratic)."""
+    rng = np.random.default_rng(3)
+    settings = SolverSettings()
+    radius, dl = 0.025, settings.contact_smoothing
+    direction = rng.normal(size=(24, 3))
+    if axis is not None:
+        direction -= np.outer(direction @ np.array(axis), axis)
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    gaps = np.concatenate([rng.uniform(-3 * dl, -0.1 * dl, 8), rng.uniform(0.1 * dl, 0.9 * dl, 8),
+                           rng.uniform(1.5 * dl, 5 * dl, 8)])  # clear, cubic, quadratic
+    x = (radius - gaps)[:, None] * direction + 0.01 * (np.outer(rng.normal(size=24), axis) if axis else 0.0)
+    sheet = type("Sheet", (), {})()
+    sheet.centre, sheet.radius, sheet.settings = np.zeros(3), radius, settings
+    sheet.axis = None if axis is None else np.array(axis)
+    sheet.node_area = rng.uniform(0.5e-6, 2e-6, 24)
+    e, g, blocks = MuscleProblem._contact(sheet, x)
+    assert MuscleProblem._contact(sheet, x, blocks=False)[2] is None
+    step = 1e-10
+    for k in range(x.size):
+        xp, xm = x.copy(), x.copy()
+        xp.reshape(-1)[k] += step
+        xm.reshape(-1)[k] -= step
+        (ep, gp, _), (em, gm, _) = MuscleProblem._contact(sheet, xp), MuscleProblem._contact(sheet, xm)
+        assert g[k] == pytest.approx((ep - em) / (2 * step), rel=1e-4, abs=1e-6 * np.abs(g).max())
+        i, a = divmod(k, 3)
+        np.testing.assert_allclose(blocks[i, :, a], (gp - gm).reshape(-1, 3)[i] / (2 * step), rtol=1e-4,
+                                   atol=1e-6 * np.abs(blocks).max())
+    assert np.all(g[:24] == 0.0) and np.abs(g[24:]).min() > 0  # the clear nodes feel nothing

@@ -8,14 +8,15 @@ rigidly by the humerus, x = R_x(theta - theta_ref) X. The total energy is
                                                    (or a cylinder: the distance from its axis)
          + 1/2 k_reg sum_(interior i) |(L (x - X))_i|^2   small out-of-plane regularisation (umbrella Laplacian)
 
-and equilibrium is grad E = 0 on the free dofs. Newton steps solve H p = -g (sparse LU); a singular tangent gets a small
-Levenberg shift; a backtracking line search on the residual norm guards the step. A step in (theta, a) that
-Newton cannot finish is halved (load stepping) until it can.
-"""
+and equilibrium is grad E = 0 on the free dofs. Newton steps solve H p = -g (`assembly`); a singular tangent gets a
+small Levenberg shift; a backtracking line search on the residual norm guards the step. A step in (theta, a) that
+Newton cannot finish is halved (load stepping) until it can. The membrane's element pass and the contact penalty are
+compiled loops (numba; `membrane`, `_contact_pass`)."""
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
+import numba
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
@@ -90,6 +91,36 @@ def _harmonic_weight(triangles, n, origin, insertion) -> np.ndarray:
     return w
 
 
+@numba.njit(cache=True, error_model="numpy")
+def _contact_pass(x, centre, axis, cylinder, radius, k, dl, g, blocks):
+    """`MuscleProblem._contact` node by node: the energy (returned), its gradient into g (3N,) and, where `blocks` has
+    N rows, each node's Hessian block, d2e n n^T - e'/r (P - n n^T) (P: the identity, less a a^T for a cylinder)."""
+    energy = 0.0
+    for i in range(len(x)):
+        d = x[i] - centre
+        if cylinder:
+            d = d - (d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2]) * axis
+        r = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        gap = max(radius - r, 0.0)
+        if gap < dl:
+            e, de, d2e = k[i] * gap**3 / (6 * dl), k[i] * gap**2 / (2 * dl), k[i] * gap / dl
+        else:
+            e = k[i] * (dl**2 / 6 + dl * (gap - dl) / 2 + (gap - dl) ** 2 / 2)
+            de, d2e = k[i] * (dl / 2 + gap - dl), k[i]
+        energy += e
+        rr = max(r, 1e-12)
+        nrm = d / rr
+        for a in range(3):
+            g[3 * i + a] = -de * nrm[a]
+        if blocks.shape[0] > 0:
+            for a in range(3):
+                for b in range(3):
+                    nn = nrm[a] * nrm[b]
+                    p = (1.0 if a == b else 0.0) - (axis[a] * axis[b] if cylinder else 0.0)
+                    blocks[i, a, b] = d2e * nn - (de / rr) * (p - nn)
+    return energy
+
+
 class MuscleProblem:
     """One muscle sheet, ready to solve at any (theta, activation)."""
 
@@ -131,31 +162,19 @@ class MuscleProblem:
     # -- energy -----------------------------------------------------------------------------------------------
     def _contact(self, x: np.ndarray, blocks: bool = True):
         """C2 penalty: e(g) = kappa A g^3 / (6 delta) for penetration g < delta, quadratic beyond (g: the radius less
-        the distance from the centre, or from the axis for a cylinder).
+        the distance from the centre, or from the axis for a cylinder): (energy, gradient (3N,), and with `blocks`
+        each node's 3x3 Hessian block (N, 3, 3), else None). Compiled, node by node (`_contact_pass`).
 
         The cubic start keeps the tangent continuous when a node touches the head, so Newton does not chatter
         between contact and no contact.
         """
-        d = x - self.centre
-        proj = np.eye(3)
-        if self.axis is not None:  # a cylinder: the distance from its axis
-            proj = proj - np.outer(self.axis, self.axis)
-            d = d @ proj
-        r = np.linalg.norm(d, axis=1)
-        gap = np.maximum(self.radius - r, 0.0)
-        k = self.settings.contact_stiffness * self.node_area
-        dl = self.settings.contact_smoothing
-        small = gap < dl
-        e_n = np.where(small, k * gap**3 / (6 * dl), k * (dl**2 / 6 + dl * (gap - dl) / 2 + (gap - dl) ** 2 / 2))
-        de = np.where(small, k * gap**2 / (2 * dl), k * (dl / 2 + gap - dl))
-        nrm = d / np.maximum(r, 1e-12)[:, None]
-        g = -de[:, None] * nrm
-        if not blocks:  # the line search's trial points need no tangent
-            return float(e_n.sum()), g.ravel(), None
-        d2e = np.where(small, k * gap / dl, k)
-        nn = nrm[:, :, None] * nrm[:, None, :]
-        node_blocks = d2e[:, None, None] * nn - (de / np.maximum(r, 1e-12))[:, None, None] * (proj - nn)
-        return float(e_n.sum()), g.ravel(), node_blocks
+        n = len(x)
+        g, node_blocks = np.zeros(3 * n), np.empty((n if blocks else 0, 3, 3))
+        axis = np.zeros(3) if self.axis is None else np.asarray(self.axis, float)
+        e = _contact_pass(np.ascontiguousarray(x, float), np.asarray(self.centre, float), axis, self.axis is not None,
+                          float(self.radius), self.settings.contact_stiffness * self.node_area,
+                          float(self.settings.contact_smoothing), g, node_blocks)
+        return e, g, node_blocks if blocks else None
 
     def newton_system(self, x: np.ndarray, activation: float) -> tuple[float, FreeMatrix]:
         """(energy, the tangent stiffness on the free dofs): membrane, regularisation and contact."""
