@@ -14,7 +14,7 @@
 2. The element kernels of every tangent, on T elements (`--elements`: 480, a full footprint band; 2,048, a 33 x 33
    length-keyed sheet): d2W/dc2 by autograd in one batched reverse pass against three passes; the energy's
    derivatives in closed form, compiled (`ElementKernel.derivatives`), against autograd
-   (`membrane.autograd_derivatives`); and the whole element pass (`ElementKernel.pass_`: the energy, the gradient and
+   (`membrane.autograd_derivatives`); and the whole element pass (`ElementKernel.evaluate`: the energy, the gradient and
    with Hessians the 9 x 9 element blocks, one compiled loop over the elements) against the same in numpy array code
    around autograd's derivatives (`autograd_pass`, as the solver was before the closed form), on a randomly strained
    flat sheet; the best of 50 calls each, their ratio and the largest difference.
@@ -81,7 +81,7 @@ def compare(label: str, problem: type, run, difference, repeats: int, layouts) -
 
 
 def autograd_pass(kernel: ElementKernel, mem: Membrane, x: np.ndarray, activation: float, hessian: bool):
-    """`ElementKernel.pass_` as numpy array code around torch autograd's derivatives (the solver before the
+    """`ElementKernel.evaluate` as numpy array code around torch autograd's derivatives (the solver before the
     closed form; the chain rule as it was written before it was compiled)."""
     b, f1, f2, c = membrane_kinematics(mem, x)
     w, dw, d2w = autograd_derivatives(c, activation, kernel.material)
@@ -102,14 +102,14 @@ def autograd_pass(kernel: ElementKernel, mem: Membrane, x: np.ndarray, activatio
 
 
 def compiled_or_autograd(label: str, run, difference, repeats: int) -> None:
-    """`run` with the compiled pass and with `autograd_pass` in its place (ElementKernel.pass_ swapped)."""
-    compiled = ElementKernel.pass_
-    variants = {"autograd": lambda: setattr(ElementKernel, "pass_", autograd_pass),
-                "compiled": lambda: setattr(ElementKernel, "pass_", compiled)}
+    """`run` with the compiled pass and with `autograd_pass` in its place (ElementKernel.evaluate swapped)."""
+    compiled = ElementKernel.evaluate
+    variants = {"autograd": lambda: setattr(ElementKernel, "evaluate", autograd_pass),
+                "compiled": lambda: setattr(ElementKernel, "evaluate", compiled)}
     try:
         side_by_side(label, variants, run, difference, repeats)
     finally:
-        ElementKernel.pass_ = compiled
+        ElementKernel.evaluate = compiled
 
 
 def iteration_caps(label: str, run, difference, repeats: int, caps) -> None:
@@ -157,7 +157,7 @@ def kernels(t: int) -> None:
     def passes(hessian: bool):
         pick = 2 if hessian else 1
         return (lambda: autograd_pass(kernel, mem, x, 1.0, hessian)[pick],
-                lambda: kernel.pass_(mem, x, 1.0, hessian)[pick])
+                lambda: kernel.evaluate(mem, x, 1.0, hessian)[pick])
 
     for label, old, new in (("d2W/dc2 by autograd", three_passes, autograd),
                             ("d2W/dc2 in closed form", autograd, lambda: kernel.derivatives(c, 1.0)[2]),

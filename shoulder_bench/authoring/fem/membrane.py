@@ -13,7 +13,7 @@ tests/test_membrane.py): autograd itself took 42 % of a band solve. The chain ru
 involves the linear maps F = sum_a x_a B_a and C = F^T F, is written out too, and the whole per-element pass
 (energy, gradient, 9x9 element blocks) is one numba-compiled loop over the elements (`_element_pass`): as numpy
 array code on a band's ~500 elements each of its ~100 array operations cost more in call overhead than in arithmetic
-(30-60 x slower, benchmarks/fem_solver_speed.py). The element blocks (`membrane_blocks`) go into the Newton system's
+(20-90 x slower, benchmarks/fem_solver_speed.py). The element blocks (`membrane_blocks`) go into the Newton system's
 fixed layout (`assembly`), or a sparse matrix (`membrane_tangent`).
 """
 from __future__ import annotations
@@ -175,8 +175,8 @@ class ElementKernel:
     """The energy density W(C11, C22, C12) (`energy`, numpy or torch: `energy_density`) and, compiled, its first and
     second derivatives in closed form: W = W_background(tr C, det C) + W_fibre(sqrt(C11)), each piece's derivatives
     from `material` (`background_point`, `fibre_point`), chained through d tr/dc = (1, 1, 0), d det/dc = (C22, C11,
-    -2 C12) and d2 det/dc2. `forces_energy` and `blocks` go on by the chain rule to the nodes (C = F^T F,
-    F = sum_a x_a B_a), all in one compiled pass over the elements (`_element_pass`)."""
+    -2 C12) and d2 det/dc2. `evaluate` goes on by the chain rule to the nodes (C = F^T F, F = sum_a x_a B_a), all
+    in one compiled pass over the elements (`_element_pass`)."""
 
     def __init__(self, material: Material):
         self.material = material
@@ -193,7 +193,7 @@ class ElementKernel:
         w, dw, d2w = _derivatives_at(np.ascontiguousarray(c, float), float(activation), self.fib, self.bg)
         return w, dw, d2w if second else None
 
-    def pass_(self, mem: Membrane, x: np.ndarray, activation: float, hessian: bool):
+    def evaluate(self, mem: Membrane, x: np.ndarray, activation: float, hessian: bool):
         """(energy, gradient (3N,), element Hessians (T, 9, 9) or None) of `mem` at x."""
         g = np.zeros(3 * mem.n_nodes)
         he = np.empty((len(mem.triangles) if hessian else 0, 9, 9))
@@ -222,7 +222,7 @@ def membrane_forces(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activat
 
 def membrane_forces_energy(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float):
     """(`membrane_forces`, the energy): one compiled pass gives both."""
-    e, g, _ = kernel.pass_(mem, x, activation, hessian=False)
+    e, g, _ = kernel.evaluate(mem, x, activation, hessian=False)
     return g.reshape(-1, 3), e
 
 
@@ -233,7 +233,7 @@ def element_dofs(mem: Membrane) -> np.ndarray:
 
 def membrane_blocks(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float):
     """(energy, gradient (3N,), element Hessians (T, 9, 9) over `element_dofs`)."""
-    return kernel.pass_(mem, x, activation, hessian=True)
+    return kernel.evaluate(mem, x, activation, hessian=True)
 
 
 def membrane_tangent(mem: Membrane, kernel: ElementKernel, x: np.ndarray, activation: float):
