@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -414,10 +415,8 @@ def test_the_contact_forces_and_blocks_are_the_penalty_energys_derivatives(axis)
     gaps = np.concatenate([rng.uniform(-3 * dl, -0.1 * dl, 8), rng.uniform(0.1 * dl, 0.9 * dl, 8),
                            rng.uniform(1.5 * dl, 5 * dl, 8)])  # clear, cubic, quadratic
     x = (radius - gaps)[:, None] * direction + 0.01 * (np.outer(rng.normal(size=24), axis) if axis else 0.0)
-    sheet = type("Sheet", (), {})()
-    sheet.centre, sheet.radius, sheet.settings = np.zeros(3), radius, settings
-    sheet.axis = None if axis is None else np.array(axis)
-    sheet.node_area = rng.uniform(0.5e-6, 2e-6, 24)
+    sheet = SimpleNamespace(centre=np.zeros(3), radius=radius, settings=settings,
+                            axis=None if axis is None else np.array(axis), node_area=rng.uniform(0.5e-6, 2e-6, 24))
     e, g, blocks = MuscleProblem._contact(sheet, x)
     assert MuscleProblem._contact(sheet, x, blocks=False)[2] is None
     step = 1e-10
