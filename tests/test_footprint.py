@@ -23,8 +23,9 @@ def pose():
 @pytest.mark.parametrize("tendon", [t for t in F.TENDONS if t not in ("dmi", "dpo")] + ["cor"])  # dmi, dpo: inside
 def test_the_sheets_fibres_start_on_mujocos_wrapped_path(tendon, pose):
     """The central fibre's initial shape (sphere: tangent-arc-tangent, cylinder: a helix, on the side site's side,
-    straight where an end is inside the object) differs from the MJCF tendon's length by a constant (the path's fixed
-    parts on the bones) at the report's 72 poses (the pose space's ends and middle) and 20 random ones."""
+    straight where an end is inside the object), with the straight segments beyond it over a second proximal bone
+    (dan, ld1-3), differs from the MJCF tendon's length by a constant (the path's fixed parts on the bones) at the
+    report's 72 poses (the pose space's ends and middle) and 20 random ones."""
     from shoulder_bench.authoring.fem.footprint_report import report_poses
 
     sheet = F.FootprintSheet(tendon, "coarse", width_m=0.01, pose=pose)
@@ -33,18 +34,20 @@ def test_the_sheets_fibres_start_on_mujocos_wrapped_path(tendon, pose):
     fixed = []
     for p in poses:
         sheet._set(p)
-        fixed.append(pose.tendon_geometry(p, (tendon,))[0][0, 0] - sheet.central_length())
+        fixed.append(pose.tendon_geometry(p, (tendon,))[0][0, 0] - sheet.central_length() - sheet.beyond_length())
     assert np.ptp(fixed) < 1e-9 and min(fixed) >= 0.0
+    assert (sheet.beyond_length() > 0.01) == (tendon in ("dan", "ld1", "ld2", "ld3"))
     sheet._set(poses[-1])
     centre = sheet.draped().reshape(sheet.ns, sheet.nt, 3)[:, sheet.nt // 2]  # its 15-node polyline
     assert np.linalg.norm(np.diff(centre, axis=0), axis=1).sum() == pytest.approx(sheet.central_length(), abs=3e-4)
 
 
-@pytest.mark.parametrize("tendon", ["ssp", "isp", "ssc"])
+@pytest.mark.parametrize("tendon", ["ssp", "isp", "ssc", "dan", "ld2"])
 def test_a_narrow_sheet_gives_back_the_mjcf_moment_arms(tendon, pose):
     """A 1 mm sheet is nearly MuJoCo's line: its solved generalised force over its tension (origin, insertion and
-    contact forces through the bodies' Jacobians and the coupling slopes) must equal -ten_J S to within 1 mm, in
-    poses with and without contact on the wrap sphere."""
+    contact forces, and for dan and ld2 the pull of their path beyond it over a second proximal bone, through the
+    bodies' Jacobians and the coupling slopes) must equal -ten_J S to within 1 mm, in poses with and without contact
+    on the wrap sphere."""
     sheet = F.FootprintSheet(tendon, "coarse", width_m=0.001, pose=pose)
     contacts = []
     for p in POSES[1:3]:
@@ -79,13 +82,28 @@ def test_paths_it_cannot_drape_and_tendons_without_a_footprint_are_refused(pose)
     assert F.free_part(pose.m, "dmi").inside and not F.free_part(pose.m, "ssp").inside
     with pytest.raises(ValueError, match="side site lies inside the object"):  # inside wrapping: the head only
         F.FootprintSheet("dmi", pose=pose)
-    for tendon in ("dan", "ld1"):
-        with pytest.raises(ValueError, match="second proximal bone"):
-            F.free_part(pose.m, tendon)
     with pytest.raises(ValueError, match="no footprint for 'cor'"):
         F.FootprintSheet("cor", pose=pose)
-    with pytest.raises(SystemExit, match="no footprint sheet for dan"):
-        fem_main(["footprint", "--tendon", "dan"])
+    with pytest.raises(SystemExit, match="no footprint sheet for cor"):
+        fem_main(["footprint", "--tendon", "cor"])
+
+
+def test_a_path_beyond_the_free_part_is_followed_where_straight_and_refused_where_it_wraps(pose):
+    """dan runs on from the acromion (scapula) to the clavicle: those two sites are `beyond`; ssp's path stays on the
+    scapula (none). A path that wraps an object on a second proximal bone is refused (no tendon of the model does)."""
+    import mujoco
+
+    m = pose.m
+    dan = F.free_part(m, "dan")
+    assert [m.body(m.site_bodyid[s]).name for s in dan.beyond] == ["scapula", "clavicle"]
+    assert dan.beyond[0] == dan.origin_site and F.free_part(m, "ssp").beyond == ()
+    xml = """<mujoco><worldbody><body name="a"><site name="pa"/><body name="b" pos="0 0.1 0"><joint type="hinge"/>
+      <geom name="w" type="sphere" size="0.01" pos="0 0.05 0"/><site name="pb" pos="0 0.1 0"/></body>
+      <body name="humerus" pos="0.1 0 0"><joint type="hinge"/><geom size="0.01"/><site name="ph"/></body></body>
+      </worldbody><tendon><spatial name="t"><site site="ph"/><site site="pa"/><geom geom="w"/><site site="pb"/>
+      </spatial></tendon></mujoco>"""
+    with pytest.raises(ValueError, match="second proximal bone after its first and wraps an object there"):
+        F.free_part(mujoco.MjModel.from_xml_string(xml), "t")
 
 
 def test_the_report_refuses_a_file_as_its_folder(tmp_path):

@@ -6,10 +6,14 @@ Which tendons: those whose free part (the MJCF path from the last humerus site t
 is straight or wraps one object, and whose footprint has a source (FOOTPRINT_M): the rotator cuff (ssp over a sphere,
 isp over a cylinder, ssc over a sphere, tmi straight), teres major (a sphere), the clavicular pectoralis major
 (straight) and the sternal one's two bundles (pec2, pec3: a sphere each; half the sternal head's footprint each, an
-assumption), and the middle and posterior deltoids (dmi, dpo): their MJCF wraps have the side site inside the object
-(MuJoCo's inside wrapping, which no sheet follows), so their sheets drape over the humeral head only (surface "head").
-cor is draped as well but has no footprint source (`width_m` runs it); dan and ld1-3 run on over a second proximal
-bone (their path's length beyond the first proximal site changes with the girdle).
+assumption), the anterior deltoid (dan, a sphere), the latissimus' three bundles (ld1-3, a cylinder each; a third of
+its footprint each, an assumption), and the middle and posterior deltoids (dmi, dpo): their MJCF wraps have the side
+site inside the object (MuJoCo's inside wrapping, which no sheet follows), so their sheets drape over the humeral head
+only (surface "head").
+cor is draped as well but has no footprint source (`width_m` runs it). The anterior deltoid (dan) and the latissimus
+(ld1-3) run on beyond the free part over a second proximal bone in straight segments (dan: from the acromion to the
+clavicle; ld: from the scapula to the thorax), whose length changes with the girdle: the sheet ends at
+P, and those segments pull on their bones with the sheet's tension, as MuJoCo's tendon does ("Reduction").
 
 Geometry. The origin line is centred on the proximal site P, the insertion line on the last humerus site Q,
 both along n = (P - c) x (Q - c) at the reference pose (c: the wrap object's centre, or the joint centre for a
@@ -34,11 +38,12 @@ the free part pulled taut, defined at every pose and reached without a walk (one
 solved before), for a force law that takes the force from elsewhere (the length-keyed tables).
 
 Reduction. At equilibrium the sheet pulls on the proximal bone at its origin nodes, on the humerus at its insertion
-nodes and pushes the contact surface's body at the nodes in contact. Each force acts at its node; its generalised
-force is J_body(x)^T f (MuJoCo's `mj_jac` of the body at that point), and the coordinates' share is S^T (S the coupling
-slopes, `full_arm.Pose.slopes`), as for the MuJoCo tendon. Divided by the tension (the magnitude of the origin's
-resultant, the pull of a straight first segment), it is the FEM's moment arm about each coordinate, to be set
-beside the MJCF tendon's r = -ten_J S (`compare`).
+nodes and pushes the contact surface's body at the nodes in contact; where the path runs on beyond P over a second
+proximal bone (`FreePart.beyond`), each straight segment there pulls its two sites towards each other with the sheet's
+tension. Each force acts at its point; its generalised force is J_body(x)^T f (MuJoCo's `mj_jac` of the body at that
+point), and the coordinates' share is S^T (S the coupling slopes, `full_arm.Pose.slopes`), as for the MuJoCo tendon.
+Divided by the tension (the magnitude of the origin's resultant, the pull of a straight first segment), it is the
+FEM's moment arm about each coordinate, to be set beside the MJCF tendon's r = -ten_J S (`compare`).
 """
 from __future__ import annotations
 
@@ -61,11 +66,15 @@ from shoulder_bench.authoring.fem.solver import MuscleProblem, NoConvergence, So
 # PMC9502243). Its sternal head: 42.1 mm there, split equally between MoBL's two sternocostal bundles PECM2 and PECM3
 # (21.05 mm each, each centred on its own insertion site): no source splits it (Fung et al. 2009, Clin Anat,
 # doi:10.1002/ca.20784, find the sternal head in 6-7 segments into one tendon), so the even split is an assumption.
-# Deltoid: the widths of the middle (4.7 mm) and posterior (7.8 mm) heads' insertions, across the humeral shaft, along
-# which their fibres arrive (Rispoli DM, Athwal GS, Sperling JW, Cofield RH. The anatomy of the deltoid insertion.
-# J Shoulder Elbow Surg 2009;18(3):386; 10 cadavers; their lengths along the shaft 48.4 and 63.4 mm).
+# Deltoid: the widths of the anterior (7.3 mm), middle (4.7 mm) and posterior (7.8 mm) heads' insertions, across the
+# humeral shaft, along which their fibres arrive (Rispoli DM, Athwal GS, Sperling JW, Cofield RH. The anatomy of the
+# deltoid insertion. J Shoulder Elbow Surg 2009;18(3):386; 10 cadavers; their lengths along the shaft 70, 48.4 and
+# 63.4 mm). Latissimus dorsi: its bony attachment in the bicipital groove, 36.5 mm long (craniocaudal, across the
+# fibres, as teres major's beside it) and 3.7 mm wide (Dancker et al. 2017, above), split equally between MoBL's three
+# bundles LAT1-3 (12.17 mm each, each centred on its own insertion site): no source splits it, an assumption.
 FOOTPRINT_M = {"ssp": 0.023, "isp": 0.029, "ssc": 0.040, "tmi": 0.029, "tma": 0.0496, "pec1": 0.0566,
-               "pec2": 0.0421 / 2, "pec3": 0.0421 / 2, "dmi": 0.0047, "dpo": 0.0078}
+               "pec2": 0.0421 / 2, "pec3": 0.0421 / 2, "dmi": 0.0047, "dpo": 0.0078, "dan": 0.0073,
+               "ld1": 0.0365 / 3, "ld2": 0.0365 / 3, "ld3": 0.0365 / 3}
 TENDONS = tuple(FOOTPRINT_M)
 # The humeral head of the MoBL-ARMS parent's humerus surface (humerus.vtp of osim-rl 3.0.11's MoBL_ARMS_J.osim) as a
 # sphere in the humerus frame: `python models/reference/scripts/humeral_head.py <humerus.vtp>` (62 vertices, RMS
@@ -213,6 +222,11 @@ class FootprintSheet:
         p, q, _ = self._ends()
         return self._fibre(p, q, 2)[1]
 
+    def beyond_length(self) -> float:
+        """The length of the path beyond P over a second proximal bone at the current pose (m; 0 where it has none)."""
+        x = self.d.site_xpos[list(self.part.beyond)]
+        return float(np.linalg.norm(np.diff(x, axis=0), axis=1).sum())
+
     def boundary(self) -> dict:
         """The origin and insertion nodes at the current pose: the reference ones carried by their bones."""
         out = {}
@@ -350,11 +364,16 @@ class FootprintSheet:
         surface = self._contact_surface()
         if surface is not None:  # the free nodes push the surface's body where they touch it
             loads += [(surface[4], i, gc[i]) for i in pb.free if np.any(gc[i] != 0.0)]
-        for which, i, f in loads:
-            mujoco.mj_jac(self.m, self.d, jacp, None, x[i], self.bodies[which])
+        tension = float(np.linalg.norm(-g[pb.nodes_of("origin")].sum(0)))
+        points = [(x[i], self.bodies[which], f) for which, i, f in loads]
+        for a, b in zip(self.part.beyond, self.part.beyond[1:]):  # beyond P: each segment pulls its ends together
+            u = self.d.site_xpos[b] - self.d.site_xpos[a]
+            u *= tension / np.linalg.norm(u)
+            points += [(self.d.site_xpos[s], self.m.site_bodyid[s], f) for s, f in ((a, u), (b, -u))]
+        for point, body, f in points:
+            mujoco.mj_jac(self.m, self.d, jacp, None, point, int(body))
             q_nv += jacp.T @ f
         q3 = self.pose.slopes(self.pose_deg).T @ q_nv
-        tension = float(np.linalg.norm(-g[pb.nodes_of("origin")].sum(0)))
         contact = float(np.linalg.norm(gc[pb.free].sum(0)))
         return {"nodes": x, "tension_N": tension, "torque_Nm": q3, "moment_arm_m": q3 / tension,
                 "contact_N": contact, "pose_deg": self.pose_deg.copy(), "activation": activation,

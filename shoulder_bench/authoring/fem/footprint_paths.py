@@ -20,6 +20,10 @@ class FreePart:
     wrap: int | None  # geom id of the wrap sphere or cylinder, or None (straight)
     sidesite: int | None  # the wrap's side site, if any
     inside: bool = False  # the side site lies inside the object (MuJoCo's inside wrapping, which no sheet follows)
+    # the sites from P on where the path runs on over a second proximal bone in straight segments (dan: scapula, then
+    # clavicle; ld1-3: scapula, then thorax): their length changes with the girdle, and each pulls on its bones as
+    # MuJoCo's tendon does; () where the path beyond P stays on P's bone (a constant length)
+    beyond: tuple[int, ...] = ()
 
 
 def path_items(m: mujoco.MjModel, tendon: str) -> list[tuple[int, int, float]]:
@@ -32,9 +36,10 @@ def path_items(m: mujoco.MjModel, tendon: str) -> list[tuple[int, int, float]]:
 def free_part(m: mujoco.MjModel, tendon: str) -> FreePart:
     """The tendon's free part: from its last humerus site Q (the sites and wraps before it, on the humerus, have a
     constant length) to the next site P on the proximal bone, with the sphere or cylinder between them, if any; the
-    path may be written from either end. Refused where the free part wraps more than one object, or where the path
-    goes on over a second proximal bone (its length beyond P would change with the girdle). A wrap whose side site
-    lies inside the object (MuJoCo's inside wrapping, which `wrap_geodesic` does not do) is marked `inside`."""
+    path may be written from either end. Where the path goes on over a second proximal bone (its length beyond P
+    changes with the girdle) in straight segments between sites, those sites are `beyond`; refused where it wraps an
+    object there, or where the free part wraps more than one object. A wrap whose side site lies inside the object
+    (MuJoCo's inside wrapping, which `wrap_geodesic` does not do) is marked `inside`."""
     hum = m.body("humerus").id
     site = int(mujoco.mjtWrap.mjWRAP_SITE)
     items = path_items(m, tendon)
@@ -50,20 +55,23 @@ def free_part(m: mujoco.MjModel, tendon: str) -> FreePart:
     j = max(i for i in range(k) if items[i][0] == site)  # Q
     if any(body(it) != hum for it in items[:j + 1]):
         raise ValueError(f"{tendon}: its path leaves the humerus before its last humerus site")
+    beyond = ()
     if len({body(it) for it in items[k:]}) > 1:
-        raise ValueError(f"{tendon}: its path goes on over a second proximal bone after its first (a via point "
-                         "whose length changes with the girdle: not draped)")
+        if any(it[0] != site for it in items[k:]):
+            raise ValueError(f"{tendon}: its path goes on over a second proximal bone after its first and wraps an "
+                             "object there (only straight segments beyond the free part are followed)")
+        beyond = tuple(it[1] for it in items[k:])
     wraps = items[j + 1:k]
     if len(wraps) > 1:
         raise ValueError(f"{tendon}: its free part wraps {len(wraps)} objects, not one (no contact for that yet)")
     if not wraps:
-        return FreePart(tendon, items[k][1], items[j][1], None, None)
+        return FreePart(tendon, items[k][1], items[j][1], None, None, beyond=beyond)
     side, inside = int(wraps[0][2]), False
     if side >= 0:
         d = mujoco.MjData(m)
         mujoco.mj_kinematics(m, d)
         inside = bool(np.linalg.norm(d.site_xpos[side] - d.geom_xpos[wraps[0][1]]) < m.geom_size[wraps[0][1], 0])
-    return FreePart(tendon, items[k][1], items[j][1], wraps[0][1], side if side >= 0 else None, inside)
+    return FreePart(tendon, items[k][1], items[j][1], wraps[0][1], side if side >= 0 else None, inside, beyond)
 
 
 def _segments_cross(a0, a1, b0, b1) -> bool:
