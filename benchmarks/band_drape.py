@@ -1,8 +1,8 @@
 """How a taut band's drape changes its equilibrium (docs/fem.md "The deltoids"): each fibre over its own great circle of
 the contact sphere, against the flat drape (`footprint.FLAT_DRAPE`: every fibre in the plane parallel to the central
-fibre's), for any footprint tendon on its band table's contact surface (`bands.surface`). For each pose: the origin's
-resultant (tension) over F0, how far the equilibrium lies from the drape (the sheet's stress-free shape), the contact
-force and the moment arms, at a = 1.
+fibre's), for any footprint tendon on its band table's contact surface (`bands.surface`, or `--surface`). For each
+pose: the origin's resultant (tension) over F0, how far the equilibrium lies from the drape (the sheet's stress-free
+shape), the contact force and the moment arms, at a = 1.
 
     python benchmarks/band_drape.py --tendon dpo --at 90 100 60 --at 30 60 0
 """
@@ -22,11 +22,13 @@ def main(argv=None) -> int:
     p.add_argument("--tendon", choices=F.TENDONS, required=True)
     p.add_argument("--at", nargs=3, type=float, action="append", required=True, metavar=("PLANE", "ELV", "ROT"))
     p.add_argument("--coarse", action="store_true", help="15 x 5 nodes instead of 31 x 9")
+    p.add_argument("--surface", choices=F.SURFACES, help="the contact surface (default: its band table's)")
     args = p.parse_args(argv)
+    surface = args.surface or bands.surface(args.tendon)
     print(f"{args.tendon}: drape, pose -> tension / F0, largest |x - X| (mm), contact (N), moment arms plane / "
           "elevation / rotation (mm); MJCF's")
     for drape, flat in (("great circles", False), ("flat", True)):
-        sheet = F.FootprintSheet(args.tendon, "coarse" if args.coarse else "full", surface=bands.surface(args.tendon),
+        sheet = F.FootprintSheet(args.tendon, "coarse" if args.coarse else "full", surface=surface,
                                  rest="pose", flat=flat)
         for pose in map(tuple, args.at):
             try:

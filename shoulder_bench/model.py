@@ -204,7 +204,7 @@ def attach_law(m: mujoco.MjModel, law, joint: str | None = None) -> None:
     if joint is not None:
         jnt = m.joint(joint).id
         qadr, vadr = int(m.jnt_qposadr[jnt]), int(m.jnt_dofadr[jnt])
-    bands = None if getattr(law, "lines", None) is None else _band_addresses(m, law, names, ctrl_of)
+    bands = None if getattr(law, "lines", None) is None else _band_addresses(m, law, names)
     compiled.register(law_id, law, ctrl_of, qadr, vadr, bands)  # complete before actuator_user names the id
     _LAWS[law_id] = (law, joint)
     m.actuator_user[:, 0] = law_id
@@ -213,7 +213,7 @@ def attach_law(m: mujoco.MjModel, law, joint: str | None = None) -> None:
     _current[0] = (None, None, None, None)
 
 
-def _band_addresses(m: mujoco.MjModel, law, names, ctrl_of) -> tuple:
+def _band_addresses(m: mujoco.MjModel, law, names) -> tuple:
     """(actuator of each band tendon, the three coordinates' qpos and dof addresses, nu) for the passive callback;
     ValueError where the model cannot carry the law's band corrections."""
     from shoulder_bench import native as compiled
@@ -224,10 +224,10 @@ def _band_addresses(m: mujoco.MjModel, law, names, ctrl_of) -> tuple:
         raise ValueError(f"band corrections act about {COORDINATES}; the model's joints are {joints}")
     acts = np.array([names.index(t) for t in law.lines.tendons])
     for t, i in zip(law.lines.tendons, acts):
-        # the callbacks take the tension as gain x ctrl + bias with ctrl in [0, 1], the actuator's own activation
-        if not m.actuator_ctrllimited[i] or tuple(m.actuator_ctrlrange[i]) != (0.0, 1.0) or \
-                ctrl_of[law.actuators.index(t)] != i:
-            raise ValueError(f"actuator {t!r}: a band correction needs a ctrl limited to [0, 1] that is its own "
+        # the passive callback takes the tension as MuJoCo's own actuator force, gain x ctrl + bias, and the level
+        # (tma's table) at that ctrl: in [0, 1], the muscle's activation (a muscle's actuators all carry it: ld1-3)
+        if not m.actuator_ctrllimited[i] or tuple(m.actuator_ctrlrange[i]) != (0.0, 1.0):
+            raise ValueError(f"actuator {t!r}: a band correction needs a ctrl limited to [0, 1], the muscle's "
                              "activation")
     if not compiled.AVAILABLE:
         raise RuntimeError(f"band corrections are applied by the compiled passive callback only; {compiled.REASON}")

@@ -111,3 +111,7 @@ def test_line_of_action_option_errors():
         law = TendonLaw.load("fem", ("ssp",))
         law.lines = BandLines.load(("ssp",))
         attach_law(compile_model(), law)
+    m = full_arm.compile_full()  # a band actuator whose ctrl is not the muscle's activation in [0, 1]
+    m.actuator_ctrllimited[m.actuator("ld2").id] = 0
+    with pytest.raises(ValueError, match="actuator 'ld2': a band correction needs a ctrl limited to"):
+        attach_law(m, TendonLaw.load("fem", groups=full_arm.ACTUATORS, line_of_action="band"))

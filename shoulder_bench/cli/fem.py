@@ -184,7 +184,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     b.add_argument("--tendon", action="append", help="with --full or --bands: only this tendon (repeatable; default "
                    "all)")
     b.add_argument("--bands", action="store_true", help="the footprint sheets' line-of-action tables (taut bands) of "
-                   "ssp, isp, tmi, tma, pec1, pec2, pec3, dpo over the 3-DOF pose grid "
+                   "ssp, isp, tmi, tma, pec1, pec2, pec3, dpo, dan, ld1-3 over the 3-DOF pose grid "
                    "(models/muscles_full/<t>_band.npz)")
     b.add_argument("--jobs", type=int, default=1, help="with --full: solve this many tendons at once (processes); "
                    "with --bands: this many processes solve each tendon's poses")

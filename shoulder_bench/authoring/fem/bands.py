@@ -67,16 +67,16 @@ MAX_UNSOLVED = 0.01
 REFINE = {"ssp": 2, "pec1": 2, "tma": (3, 2, 3), "pec3": 2, "dpo": 2}
 # Tendons whose band is solved as the least-energy of several equilibria (`least_energy`), with how many of
 # `probe_offsets`' six starts beside the ramp's: tmi, whose sheet (no contact surface) has two at some poses, the ramp
-# from rest landing on the higher, all six; tma and ssp, where any one start found the lower equilibrium at each
-# pose that has one (`benchmarks/band_branches.py`: tma 10 of 100 poses, ssp 5 of 150; ssp's one held-out miss on its
-# grid was such a pose), one (docs/fem.md "What each miss is", "tma", "ssp: one start")
-LEAST_ENERGY = {"tmi": 6, "tma": 1, "ssp": 1}
+# from rest landing on the higher, all six; tma and ssp, where any one start found the lower equilibrium at each pose
+# that has one (`benchmarks/band_branches.py`: tma 10 of 100, ssp 5 of 150), and dan and ld1-3 (every start found it
+# at their worst held-out poses: band_refine.py --branches), one (docs/fem.md "tma", "ssp: one start", "dan and ld1-3")
+LEAST_ENERGY = {"tmi": 6, "tma": 1, "ssp": 1, "dan": 1, "ld1": 1, "ld2": 1, "ld3": 1}
 PROBE_FRACTION = 0.25  # the starts' offsets from the pose, in tasks' grid steps
 # Each tendon's contact surface (`footprint.SURFACES`; "wrap", the MJCF's wrap object, if absent): the humeral head
-# sphere (`footprint.HUMERAL_HEAD`) for isp, whose band on the parent's 23.5 mm cylinder follows the MJCF path's jump at
-# high elevation in external rotation and no table of it meets the held-out bound (docs/fem.md "isp: the humeral
-# head"), and for dpo (and dmi, not tabled), whose MJCF wraps are MuJoCo's inside wrapping (docs/fem.md "The deltoids")
-SURFACE = {"isp": "head", "dmi": "head", "dpo": "head"}
+# sphere (`footprint.HUMERAL_HEAD`) for isp (its band on the parent's cylinder follows the MJCF path's jump and misses
+# the held-out bound: docs/fem.md "isp: the humeral head"), dpo and dmi (their MJCF wraps are MuJoCo's inside wrapping:
+# "The deltoids") and dan (its acromial site enters its MJCF wrap sphere at high elevation: "dan and ld1-3")
+SURFACE = {"isp": "head", "dmi": "head", "dpo": "head", "dan": "head"}
 SURFACE_TEXT = {"wrap": "the MJCF's wrap object", "head": "the humeral head sphere"}  # in each table's meta
 
 
