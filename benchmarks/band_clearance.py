@@ -16,16 +16,15 @@ from shoulder_bench.authoring.fem import bands
 from shoulder_bench.authoring.fem import footprint as F
 
 
-def _clearance(point, centre, radius, axis) -> float:
-    """Distance of `point` from the sphere (axis None) or the infinite cylinder about `axis`, negative inside (m)."""
-    v = point - centre
+def _clearance(p, q, centre, radius, axis) -> float:
+    """Least distance of the segment p-q from the sphere (axis None) or the infinite cylinder about `axis`, negative
+    inside (m): its closest point to the centre, or to the axis in the projection along it (q = p: the point p)."""
+    a, b = p - centre, q - centre
     if axis is not None:
-        v = v - (v @ axis) * axis
-    return float(np.linalg.norm(v) - radius)
-
-
-def _line_clearance(p, q, centre, radius, axis, n: int = 201) -> float:
-    return min(_clearance(x, centre, radius, axis) for x in p + np.linspace(0, 1, n)[:, None] * (q - p))
+        a, b = a - (a @ axis) * axis, b - (b @ axis) * axis
+    d = b - a
+    t = float(np.clip(-(a @ d) / (d @ d), 0.0, 1.0)) if d @ d > 0 else 0.0
+    return float(np.linalg.norm(a + t * d) - radius)
 
 
 def main(argv=None) -> int:
@@ -42,7 +41,7 @@ def main(argv=None) -> int:
                 sheet._set(pose)
                 p, q, _ = sheet._ends()
                 c, radius, axis = sheet._contact_surface()[:3]
-                rows.append((_clearance(p, c, radius, axis), _line_clearance(p, q, c, radius, axis)))
+                rows.append((_clearance(p, p, c, radius, axis), _clearance(p, q, c, radius, axis)))
                 wrapped += sheet.central_length() > np.linalg.norm(q - p) + 1e-6
             rows = 1e3 * np.array(rows)
             name = "MJCF wrap" if surface == "wrap" else "head"
