@@ -1,7 +1,7 @@
 """The FEM solver's speed, side by side in one run (docs/fem.md "Newton"):
 
     .venv/bin/python benchmarks/fem_solver_speed.py [--tendon T ...] [--poses N] [--full-tendon T] [--repeats R]
-        [--elements T ...] [--kernels] [--layouts A B] [--max-iter A B]
+        [--elements T ...] [--kernels] [--layouts A B] [--max-iter A B] [--topology-cache]
 
 1. How the sheets' Newton systems are factorised (`MuscleProblem.layout`, `assembly.LAYOUTS`; `--layouts A B`,
    default COLAMD NATURAL): SuperLU with COLAMD (SciPy's default) or the natural order, LAPACK's banded LU
@@ -26,6 +26,9 @@
    grid poses solved with either cap, alternating; a step whose Newton fails is halved (`MuscleProblem.step`), so a
    lower cap gives up sooner on a wandering solve; the largest difference of the results shows whether the
    equilibria found are the same.
+5. The sheet's connectivity worked out once (`--topology-cache`; `solver.sheet_topology`): each band tendon's N grid
+   poses solved with its cache and with a cache that keeps nothing (every problem works out its regularisation and
+   predictor weight anew, as before), alternating; the results should not differ at all.
 """
 from __future__ import annotations
 
@@ -37,7 +40,7 @@ import numpy as np
 import torch
 from reset_speed import best_ms  # this folder's: the best of repeated calls, ms
 
-from shoulder_bench.authoring.fem import bands, footprint, full
+from shoulder_bench.authoring.fem import bands, footprint, full, solver
 from shoulder_bench.authoring.fem.assembly import LAYOUTS
 from shoulder_bench.authoring.fem.material import Material
 from shoulder_bench.authoring.fem.membrane import (
@@ -122,6 +125,23 @@ def iteration_caps(label: str, run, difference, repeats: int, caps) -> None:
         footprint.SETTINGS = kept
 
 
+class Forgetful(dict):
+    """A cache that keeps nothing."""
+
+    def __setitem__(self, key, value) -> None:
+        pass
+
+
+def topology_cache(label: str, run, difference, repeats: int) -> None:
+    kept = solver.TOPOLOGY_CACHE
+    variants = {"uncached": lambda: setattr(solver, "TOPOLOGY_CACHE", Forgetful()),
+                "cached": lambda: setattr(solver, "TOPOLOGY_CACHE", kept)}
+    try:
+        side_by_side(label, variants, run, difference, repeats)
+    finally:
+        solver.TOPOLOGY_CACHE = kept
+
+
 def arms(a: dict, b: dict) -> str:
     both = a["converged"] & b["converged"]
     solved = f"{a['converged'].sum()}/{b['converged'].sum()} solved"
@@ -184,6 +204,8 @@ def main() -> None:
                    help=f"the two layouts of 1. ({', '.join(LAYOUTS)}; default COLAMD NATURAL)")
     p.add_argument("--max-iter", type=int, nargs=2, metavar="CAP",
                    help="band solves with Newton's iteration cap A against B (4.) instead of the layouts (1.)")
+    p.add_argument("--topology-cache", action="store_true",
+                   help="band solves with the sheets' connectivity cached against not (5.) instead of the layouts (1.)")
     args = p.parse_args()
     if min(args.poses, args.repeats, *args.elements) < 1:
         p.error("--poses, --repeats and --elements take positive counts")
@@ -197,9 +219,11 @@ def main() -> None:
             compiled_or_autograd(f"band {t}, {len(poses)} poses", run, arms, args.repeats)
         elif args.max_iter:
             iteration_caps(f"band {t}, {len(poses)} poses", run, arms, args.repeats, args.max_iter)
+        elif args.topology_cache:
+            topology_cache(f"band {t}, {len(poses)} poses", run, arms, args.repeats)
         else:
             compare(f"band {t}, {len(poses)} poses", footprint._Problem, run, arms, args.repeats, args.layouts)
-    if args.full_tendon != "none" and not args.max_iter:
+    if args.full_tendon != "none" and not (args.max_iter or args.topology_cache):
         spec = full.specs()[args.full_tendon]
         lengths = full.length_grids()[args.full_tendon]
         label = f"length-keyed {args.full_tendon}, {len(lengths)} lengths"

@@ -15,6 +15,7 @@ from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem import footprint, full
 from shoulder_bench.authoring.fem.assembly import BANDED, LAYOUTS, Assembly
 from shoulder_bench.authoring.fem.membrane import element_dofs, membrane_tangent
+from shoulder_bench.authoring.fem.shells import grid_triangles
 from shoulder_bench.authoring.fem.v2_sheet import SheetProblem
 
 
@@ -123,3 +124,20 @@ def test_a_build_worker_takes_one_blas_thread_and_sigterm_ends_it():
     finally:
         signal.signal(signal.SIGTERM, previous)
     assert blas and all(n == 1 for n in blas) and default_sigterm
+
+
+def test_a_sheets_connectivity_is_worked_out_once_per_mesh_and_attachment_lines(monkeypatch):
+    """`solver.sheet_topology`'s cache gives what the problem worked out before (L^T L, the harmonic weight), keyed on
+    the attachment lines too: the same mesh with the insertion line moved gets its own weight."""
+    from shoulder_bench.authoring.fem import solver
+
+    monkeypatch.setattr(solver, "TOPOLOGY_CACHE", {})
+    tri, n = grid_triangles(6, 4), 24
+    ends = [(np.arange(4), np.arange(20, 24)), (np.arange(4), np.arange(16, 20))]
+    for origin, insertion in ends * 2:
+        lap = sp.kron(solver._umbrella(tri, n), sp.identity(3)).tocsr()
+        lap_squared, weight = solver.sheet_topology(tri, n, origin, insertion)
+        assert abs(lap_squared - lap.T @ lap).max() == 0.0
+        np.testing.assert_array_equal(weight, solver._harmonic_weight(tri, n, origin, insertion))
+        assert not weight.flags.writeable and weight[insertion].min() == 1.0
+    assert len(solver.TOPOLOGY_CACHE) == 2

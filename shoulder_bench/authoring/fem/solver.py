@@ -91,6 +91,28 @@ def _harmonic_weight(triangles, n, origin, insertion) -> np.ndarray:
     return w
 
 
+# sheet_topology's results by mesh and attachment lines (a few sheets at a time; a dict, so a benchmark can swap it)
+TOPOLOGY_CACHE: dict = {}
+
+
+def sheet_topology(triangles: np.ndarray, n: int, origin: np.ndarray, insertion: np.ndarray):
+    """What a sheet's problem takes from its connectivity alone: L^T L of the regularisation's umbrella Laplacian L
+    (per dof) and the predictor's harmonic weight (read-only), worked out once per mesh and attachment lines. A
+    footprint band builds its problem anew at every pose it solves (four times a pose for a least-energy tendon), and
+    these two were ~11 % of its solve (docs/fem.md "Newton")."""
+    key = (np.shape(triangles), int(n), *(np.asarray(a).tobytes() for a in (triangles, origin, insertion)))
+    hit = TOPOLOGY_CACHE.get(key)
+    if hit is None:
+        lap = sp.kron(_umbrella(triangles, n), sp.identity(3)).tocsr()
+        weight = _harmonic_weight(triangles, n, origin, insertion)
+        weight.setflags(write=False)
+        hit = (lap.T @ lap, weight)
+        if len(TOPOLOGY_CACHE) >= 16:
+            TOPOLOGY_CACHE.clear()
+        TOPOLOGY_CACHE[key] = hit
+    return hit
+
+
 @numba.njit(cache=True, error_model="numpy")
 def _contact_pass(x, centre, axis, cylinder, radius, k, dl, g, blocks):
     """`MuscleProblem._contact` node by node: the energy (returned), its gradient into g (3N,) and, where `blocks` has
@@ -151,9 +173,8 @@ class MuscleProblem:
         self.f0 = float(f0 if f0 is not None else anatomy.F0[str(shell["muscle"])])
         self.node_area = np.bincount(self.mem.triangles.ravel(), np.repeat(self.mem.area / 3.0, 3), minlength=n)
         k_reg = settings.regularisation * material.background.youngs_modulus * float(np.mean(self.mem.thickness))
-        lap = sp.kron(_umbrella(self.mem.triangles, n), sp.identity(3)).tocsr()
-        self.reg_matrix = (k_reg * (lap.T @ lap)).tocsr()
-        self.weight = _harmonic_weight(self.mem.triangles, n, self.origin, self.insertion)
+        lap_squared, self.weight = sheet_topology(self.mem.triangles, n, self.origin, self.insertion)
+        self.reg_matrix = (k_reg * lap_squared).tocsr()
         self.centre = np.zeros(3)
         self.radius = anatomy.HUMERAL_HEAD_RADIUS
         self.axis = None  # contact with the sphere (centre, radius); a unit axis: the infinite cylinder about it
