@@ -1,0 +1,89 @@
+"""Where the humerus' tendon insertions lie against the humeral head's articular cap, and how far the greater
+tuberosity stands out of the head sphere: the geometry behind docs/fem.md "What remains of §2" (why the subscapularis'
+band cannot press on the humeral head, and what a greater tuberosity would add for the middle deltoid's).
+
+    python models/reference/scripts/humeral_cap.py /tmp/osim-rl-3.0.11/osim/models/Geometry/humerus.vtp
+
+(humerus.vtp as `humeral_head.py` fetches it.) The head sphere is footprint.HUMERAL_HEAD (fitted by humeral_head.py).
+Its articular part, a spherical cap, is placed from published proximal-humerus geometry, not fitted (the parent's mesh
+has 309 vertices and no anatomical neck to fit): its pole along the head axis, at the inclination (the angle between
+the head axis and the shaft axis, distally) and the retroversion (the head axis' angle behind the transepicondylar
+axis, about the shaft) of each source; its edge, the anatomical neck, at the arc each source gives. The shaft axis
+runs from the elbow (the mid-point of the mesh's most medial and most lateral distal vertices, the epicondyles) to the
+head's centre. Sources:
+- Iannotti JP, Gabriel JP, Schneck SL, Evans BG, Misra S. The normal glenohumeral relationships. J Bone Joint Surg Am
+  1992;74(4):491 (140 shoulders): radius of curvature 24 mm, head thickness (the cap's height) 19 mm, so an arc of
+  2 arccos((24 - 19) / 24) = 156 deg.
+- Roberts SN, Foley AP, Swallow HM, Wallace WA, Coughlan DP. The geometry of the humeral head and the design of
+  prostheses. J Bone Joint Surg Br 1991;73(4):647 (29 humeri): retroversion 21.4 deg.
+- Zhang Y, et al. Study on geometry and morphology of proximal humerus in Northern Chinese population based on 3-D CT.
+  J Orthop Surg Res 2023;18:1 (doi:10.1186/s13018-023-03504-2; 80 humeri): inclination 137.7 deg, coronal arc 151.8 deg.
+- A 3-D study of 559 cadaveric humeri pairs (Three-dimensional measurement of humeral retroversion on a large academic
+  cadaveric database): retroversion 39.9 deg (males), neck angle 137.7 deg; the upper end of the usual 25-35 deg.
+Prints, for each tendon insertion site on the MJCF humerus, its distance outside the head sphere and its angle from
+the pole under each geometry (inside the cap: less than half the arc), and the proximal humerus' most lateral vertices'
+distances outside the sphere (the greater tuberosity).
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from humeral_head import vertices
+
+ROOT = Path(__file__).resolve().parents[3]
+sys.path.insert(0, str(ROOT))
+from shoulder_bench.authoring.fem.footprint import HUMERAL_HEAD  # noqa: E402
+
+# (label, inclination deg, retroversion deg, arc deg)
+GEOMETRIES = (("Iannotti arc, Roberts retroversion, 3-D CT inclination", 137.7, 21.4, 156.0),
+              ("3-D CT arc and inclination, Roberts retroversion", 137.7, 21.4, 151.8),
+              ("3-D CT arc and inclination, 559-humeri retroversion", 137.7, 39.9, 151.8))
+INSERTIONS = {"ssp": "SUPSP_SUPSP-P1", "isp": "INFSP_INFSP-P1", "ssc": "SUBSC_SUBSC-P1", "tmi": "TMIN_TMIN-P1",
+              "dmi": "DELT2_DELT2-P1", "dan": "DELT1_DELT1-P1", "dpo": "DELT3_DELT3-P3"}
+
+
+def frame(x: np.ndarray, centre: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(shaft axis towards the head, medial unit vector across it along the epicondyles, posterior unit vector)."""
+    distal = x[x[:, 1] < x[:, 1].min() + 0.04]
+    lateral, medial = distal[np.argmax(distal[:, 2])], distal[np.argmin(distal[:, 2])]
+    shaft = centre - (lateral + medial) / 2
+    shaft /= np.linalg.norm(shaft)
+    across = medial - lateral
+    across -= (across @ shaft) * shaft
+    across /= np.linalg.norm(across)
+    posterior = np.cross(shaft, across)
+    return shaft, across, posterior if posterior[0] < 0 else -posterior  # the humerus frame's x is anterior
+
+
+def main(path: str) -> None:
+    x = vertices(path)
+    c, radius = np.asarray(HUMERAL_HEAD["centre_m"]), HUMERAL_HEAD["radius_m"]
+    shaft, medial, posterior = frame(x, c)
+    m = mujoco.MjModel.from_xml_path(str(ROOT / "models" / "shoulder_full_task.xml"))
+    sites = {t: m.site_pos[m.site(s).id] - c for t, s in INSERTIONS.items()}
+    print(f"head sphere: radius {radius * 1e3:.2f} mm; shaft axis {np.round(shaft, 3).tolist()} (humerus frame)")
+    print("insertion site: outside the sphere (mm) " + " ".join(f"{t} {(np.linalg.norm(v) - radius) * 1e3:+.1f}"
+                                                               for t, v in sites.items()))
+    for label, inclination, retroversion, arc in GEOMETRIES:
+        up, back = np.radians(inclination - 90.0), np.radians(retroversion)
+        pole = np.sin(up) * shaft + np.cos(up) * (np.cos(back) * medial + np.sin(back) * posterior)
+        angle = {t: np.degrees(np.arccos(v @ pole / np.linalg.norm(v))) for t, v in sites.items()}
+        inside = [t for t, a in angle.items() if a < arc / 2 and np.linalg.norm(sites[t]) < radius]
+        print(f"{label} (inclination {inclination}, retroversion {retroversion}, arc {arc} deg): pole "
+              f"{np.round(pole, 3).tolist()}; angle from the pole (deg) "
+              + " ".join(f"{t} {a:.0f}" for t, a in angle.items())
+              + f"; inside the sphere and within the cap: {', '.join(inside) or 'none'}")
+    v = x - c
+    proximal = x[np.linalg.norm(v, axis=1) < 0.035]
+    lateral = proximal[np.argsort(-proximal[:, 2])[:6]]
+    print("the 6 most lateral vertices within 35 mm of the head's centre (the greater tuberosity): outside the sphere "
+          f"(mm) {', '.join(f'{(np.linalg.norm(p - c) - radius) * 1e3:+.1f}' for p in lateral)}; lateral coordinate "
+          f"(mm) {', '.join(f'{p[2] * 1e3:.1f}' for p in lateral)}; the sphere's lateral extreme "
+          f"{(c[2] + radius) * 1e3:.1f} mm")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
