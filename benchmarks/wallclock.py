@@ -6,17 +6,17 @@ the frames/s.
     .venv/bin/python benchmarks/wallclock.py [--algo ppo|bdq] [--configs NAME ...] [--seeds 0 1 2]
         [--frames 600000] [--eval-every 20000] [--out runs/ppo_wallclock] [--task abduction_4m]
 
-PPO configs are overrides of `PPOConfig`'s defaults before its search (`BEFORE`: 256 envs, 5 epochs x 4
-mini-batches, 24 steps; `CONFIGS` below; `default` is `BEFORE` itself; rounds 1-2 chose `e1m8t1_n64`, round 3 `n64_s12`;
-round 4 tried `s12_*` from it and kept it; round 5 chose `s12_fused`, today's `PPOConfig()`; round 6 tried the
-overlap, not kept; round 7 the return's horizon and scale, not kept). BDQ configs (`BDQ_CONFIGS`, task
-`abduction_4m_discrete`) are overrides of the task's preset before its search (`BDQ_BEFORE`, `train.dqn.PRESETS`;
+PPO configs are overrides of `PPOConfig`'s defaults before its search (`BEFORE`: 256 envs, 5 epochs x 4 mini-batches,
+24 steps; `CONFIGS` below; `default` is `BEFORE` itself; rounds 1-2 chose `e1m8t1_n64`, round 3 `n64_s12`; round 4
+tried `s12_*` from it and kept it; round 5 chose `s12_fused`, today's `PPOConfig()`; round 6 tried the overlap, not
+kept; round 7 the return's horizon and scale, not kept; round 8 a smaller value network). BDQ configs (`BDQ_CONFIGS`,
+task `abduction_4m_discrete`) are overrides of the task's preset before its search (`BDQ_BEFORE`, `train.dqn.PRESETS`;
 round 1 fewer gradient steps per frame, rounds 2-4 n-step returns, exploration, gamma and the target update, none
 kept; round 5 the env stepped beside the updates, kept; rounds 6-7 a lower gamma and half the learning rate with it,
-not kept). Runs are normal run folders
-(`<out>/<config>/<seed>`), so a rerun resumes or reuses finished ones; `<out>/table.md` is rewritten at the end. The
-runs alternate configs within each seed (seed 0 of every config, then seed 1, ...), so that a change in the
-machine's load spreads over all configs. Wall times are this machine's: compare configs only within one table.
+not kept). Runs are normal run folders (`<out>/<config>/<seed>`), so a rerun resumes or reuses finished ones;
+`<out>/table.md` is rewritten at the end. The runs alternate configs within each seed (seed 0 of every config, then
+seed 1, ...), so that a change in the machine's load spreads over all configs. Wall times are this machine's: compare
+configs only within one table.
 """
 from __future__ import annotations
 
@@ -70,6 +70,11 @@ CONFIGS = {
     "s12_g90": {**S12, "fused_adam": True, "gamma": 0.9},
     "s12_lam09": {**S12, "fused_adam": True, "lam": 0.9},
     "s12_rs01": {**S12, "fused_adam": True, "reward_scale": 0.1},
+    # round 8: a smaller value network (the policy stays the paper's 3 x 250): the critic's forward and backward
+    # are half of the update's arithmetic (benchmarks/ppo_update.py --critic)
+    "s12_c250": {**S12, "fused_adam": True, "critic_hidden_dims": [250]},
+    "s12_c128": {**S12, "fused_adam": True, "critic_hidden_dims": [128, 128]},
+    "s12_c64": {**S12, "fused_adam": True, "critic_hidden_dims": [64, 64]},
 }
 # BDQ-4: the preset before its search (train.dqn.PRESETS["abduction_4m_discrete"] then: 32 envs, one gradient step of
 # 256 per vec step, lr 5e-4, 2 x 256, the env stepped between the gradient steps)

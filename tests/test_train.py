@@ -125,6 +125,16 @@ def test_ppo_error_features_and_reward_scale_export_a_policy_on_raw_observations
     assert policy(torch.zeros(2, 5)).shape == (2, 1)  # the task's 5 observations; the features are inside
 
 
+def test_a_smaller_value_network_trains_and_the_policy_keeps_the_papers(tmp_path):
+    out = tmp_path / "run"
+    train("abduction_4m", "ppo", frames=256, out=out, config=_config(tmp_path, critic_hidden_dims=[32]),
+          eval_every=10**9)
+    state = torch.load(out / "checkpoint.pt", weights_only=False)["state"]["alg"]
+    shapes = {part: [tuple(v.shape) for k, v in state[f"{part}_state_dict"].items() if k.endswith("weight")]
+              for part in ("actor", "critic")}
+    assert shapes == {"actor": [(250, 8), (250, 250), (250, 250), (4, 250)], "critic": [(32, 8), (1, 32)]}, shapes
+
+
 def test_wall_time_to_accuracy_is_recorded_logged_and_printed(tmp_path, monkeypatch, capsys):
     """The first evaluation at or below each threshold gives frames and training wall time (evaluations excluded);
     a threshold never reached is null. 1000 deg is reached at the first evaluation, 1e-6 deg never, and 512 frames

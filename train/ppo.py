@@ -32,6 +32,7 @@ class PPOConfig:
     num_envs: int = 64
     steps_per_env: int = 12
     hidden_dims: list[int] = field(default_factory=list)  # empty: the paper's ([256] or [250, 250, 250])
+    critic_hidden_dims: list[int] = field(default_factory=list)  # the value network's; empty: as the policy's
     activation: str = "relu"
     learning_rate: float = 1e-3
     schedule: str = "adaptive"  # rsl-rl: adapt the learning rate to keep the KL near desired_kl
@@ -72,7 +73,7 @@ def config_for(task: str) -> PPOConfig:
     return PPOConfig(**PRESETS.get(task, {}))
 
 
-LIMITS = {"num_envs": at_least(1), "steps_per_env": at_least(1), "hidden_dims": sizes(),
+LIMITS = {"num_envs": at_least(1), "steps_per_env": at_least(1), "hidden_dims": sizes(), "critic_hidden_dims": sizes(),
           "activation": one_of("elu", "selu", "relu", "crelu", "lrelu", "tanh", "sigmoid", "softplus", "gelu",
                                "swish", "mish", "identity"),
           "learning_rate": positive(), "schedule": one_of("adaptive", "fixed"), "desired_kl": positive(),
@@ -146,7 +147,7 @@ def rsl_config(cfg: PPOConfig, n_muscles: int) -> dict:
                                                                                        "critic": ["critic"]},
         "actor": {**model, "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": cfg.init_std,
                                                 "std_type": "scalar"}},
-        "critic": dict(model),
+        "critic": dict(model, hidden_dims=cfg.critic_hidden_dims or hidden),
         "algorithm": {"class_name": "PPO", "learning_rate": cfg.learning_rate, "schedule": cfg.schedule,
                       "desired_kl": cfg.desired_kl, "num_learning_epochs": cfg.num_learning_epochs,
                       "num_mini_batches": cfg.num_mini_batches, "clip_param": cfg.clip_param, "gamma": cfg.gamma,

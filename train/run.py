@@ -39,7 +39,8 @@ BUDGET_FREE = ("frames",)  # algorithm config fields that are the run's budget, 
 # it (overlap_env False); DQN and BDQ: one-step returns (n_step 1), the env stepped between the gradient steps
 # (overlap_env False)
 DQN_ADDED = {"n_step": 1, "overlap_env": False}
-ADDED_FIELDS = {"ppo": {"update_threads": 1, "fused_adam": False, "anneal_kl": False, "overlap_env": False},
+ADDED_FIELDS = {"ppo": {"update_threads": 1, "fused_adam": False, "anneal_kl": False, "overlap_env": False,
+                        "critic_hidden_dims": []},
                 "dqn": DQN_ADDED, "bdq": DQN_ADDED}
 
 
