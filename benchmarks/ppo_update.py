@@ -1,6 +1,7 @@
-"""The PPO update (`alg.update()`, rsl-rl) on the default config, its optimiser and torch threads side by side in one
-run: rsl-rl's Adam (torch's `foreach` step) against the fused Adam `train.ppo` installs, with 1 and 2 torch threads;
-with `--critic`, the fused update with 1 thread and a smaller value network too (`PPOConfig.critic_hidden_dims`).
+"""The PPO update (`alg.update()`, rsl-rl) on the task's config, its optimiser and torch threads side by side in one
+run: rsl-rl's Adam (torch's `foreach` step) against the fused Adam `train.ppo` installs, with 1 and 2 torch threads,
+the value network the policy's size; with `--critic`, the fused update with 1 thread and that value network too
+(`PPOConfig.critic_hidden_dims`; abduction_4m's preset has 128,128 since docs/training.md's round 8).
 
     .venv/bin/python benchmarks/ppo_update.py [--repeats 20] [--task abduction_4m] [--critic 128,128 ...]
 

@@ -26,9 +26,10 @@ import statistics
 from pathlib import Path
 
 # PPOConfig's defaults before the search (pinned where a round changed the default: steps_per_env in round 3, the
-# optimiser in round 5; overlap_env, added in round 6, pinned off so the search's runs stay what they were)
+# optimiser in round 5, the task's value network in round 8; overlap_env, added in round 6, pinned off so the
+# search's runs stay what they were)
 BEFORE = {"num_envs": 256, "num_learning_epochs": 5, "num_mini_batches": 4, "steps_per_env": 24, "fused_adam": False,
-          "overlap_env": False}
+          "overlap_env": False, "critic_hidden_dims": []}
 N64 = {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64}  # rounds 1-2's choice
 S12 = {**N64, "steps_per_env": 12}  # round 3's choice
 CONFIGS = {
