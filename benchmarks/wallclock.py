@@ -13,10 +13,10 @@ kept; round 7 the return's horizon and scale, not kept; round 8 a smaller value 
 task `abduction_4m_discrete`) are overrides of the task's preset before its search (`BDQ_BEFORE`, `train.dqn.PRESETS`;
 round 1 fewer gradient steps per frame, rounds 2-4 n-step returns, exploration, gamma and the target update, none
 kept; round 5 the env stepped beside the updates, kept; rounds 6-7 a lower gamma and half the learning rate with it,
-not kept). Runs are normal run folders (`<out>/<config>/<seed>`), so a rerun resumes or reuses finished ones;
-`<out>/table.md` is rewritten at the end. The runs alternate configs within each seed (seed 0 of every config, then
-seed 1, ...), so that a change in the machine's load spreads over all configs. Wall times are this machine's: compare
-configs only within one table.
+not kept; round 8 smaller shared layers). Runs are normal run folders (`<out>/<config>/<seed>`), so a rerun resumes or
+reuses finished ones; `<out>/table.md` is rewritten at the end. The runs alternate configs within each seed (seed 0 of
+every config, then seed 1, ...), so that a change in the machine's load spreads over all configs. Wall times are this
+machine's: compare configs only within one table.
 """
 from __future__ import annotations
 
@@ -105,6 +105,8 @@ BDQ_CONFIGS = {
     "overlap_eps30k_g90": {"overlap_env": True, "eps_decay_frames": 30_000, "gamma": 0.9},
     # round 7: half the learning rate, as the 3-DOF task's preset since 2026-12-06 (docs/tasks_3dof.md)
     "overlap_lr25": {"overlap_env": True, "lr": 2.5e-4},
+    # round 8: smaller shared layers (PPO's round 8 found the update's arithmetic worth cutting)
+    "overlap_h128": {"overlap_env": True, "hidden": [128, 128]},
 }
 SEARCHES = {"ppo": (BEFORE, CONFIGS, "abduction_4m", "runs/ppo_wallclock"),
             "bdq": (BDQ_BEFORE, BDQ_CONFIGS, "abduction_4m_discrete", "runs/bdq_wallclock")}
