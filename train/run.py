@@ -36,8 +36,8 @@ BUDGET_FREE = ("frames",)  # algorithm config fields that are the run's budget, 
 # Config fields added after runs were recorded, per algorithm, with the value those runs had (their behaviour then): a
 # run recorded without one is the same run as one asking for that value. PPO: torch threads in the update (1), rsl-rl's
 # foreach Adam (fused_adam False), a fixed KL target (anneal_kl False), each rollout collected after the update before
-# it (overlap_env False); DQN and BDQ: one-step returns (n_step 1), the env stepped between the gradient steps
-# (overlap_env False)
+# it (overlap_env False), a value network the policy's size (critic_hidden_dims empty); DQN and BDQ: one-step returns
+# (n_step 1), the env stepped between the gradient steps (overlap_env False)
 DQN_ADDED = {"n_step": 1, "overlap_env": False}
 ADDED_FIELDS = {"ppo": {"update_threads": 1, "fused_adam": False, "anneal_kl": False, "overlap_env": False,
                         "critic_hidden_dims": []},
