@@ -66,11 +66,11 @@ MAX_UNSOLVED = 0.01
 # docs/fem.md "What each miss is", "tma", "tma: half the elevation step", "pec2 and pec3", "The deltoids")
 REFINE = {"ssp": 2, "pec1": 2, "tma": (3, 2, 3), "pec3": 2, "dpo": 2}
 # Tendons whose band is solved as the least-energy of several equilibria (`least_energy`), with how many of
-# `probe_offsets`' six starts beside the ramp's: tmi, whose sheet (no contact surface) has two at some poses, the ramp
-# from rest landing on the higher, all six; tma and ssp, where any one start found the lower equilibrium at each pose
-# that has one (`benchmarks/band_branches.py`: tma 10 of 100, ssp 5 of 150), and dan and ld1-3 (every start found it
-# at their worst held-out poses: band_refine.py --branches), one (docs/fem.md "tma", "ssp: one start", "dan and ld1-3")
-LEAST_ENERGY = {"tmi": 6, "tma": 1, "ssp": 1, "dan": 1, "ld1": 1, "ld2": 1, "ld3": 1}
+# `probe_offsets`' six starts beside the ramp's: tmi (no contact surface; the ramp from rest lands on the higher of two)
+# all six; tma, ssp (any one start found the lower equilibrium where there is one: band_branches.py), dan, ld1-3 and
+# dpo (every start found it at their worst held-out poses: band_refine.py --branches) one (docs/fem.md "tma", "ssp: one
+# start", "dan and ld1-3", "dpo: least energy")
+LEAST_ENERGY = {"tmi": 6, "tma": 1, "ssp": 1, "dan": 1, "ld1": 1, "ld2": 1, "ld3": 1, "dpo": 1}
 PROBE_FRACTION = 0.25  # the starts' offsets from the pose, in tasks' grid steps
 # Each tendon's contact surface (`footprint.SURFACES`; "wrap", the MJCF's wrap object, if absent): the humeral head
 # sphere (`footprint.HUMERAL_HEAD`) for isp (its band on the parent's cylinder follows the MJCF path's jump and misses
