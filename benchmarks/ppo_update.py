@@ -83,16 +83,15 @@ def main(argv=None) -> int:
     variants = [("rsl-rl Adam (foreach)", alg, False, 1), ("fused Adam", alg, True, 1),
                 ("rsl-rl Adam (foreach)", alg, False, 2), ("fused Adam", alg, True, 2)]
     variants += [(f"fused, critic {c}", rollout_and_alg(args.task, c), True, 1) for c in critics]
-    times = {v[0] + str(v[3]): [] for v in variants}
+    times = [[] for _ in variants]
     for _ in range(args.repeats):
-        for v in variants:
-            times[v[0] + str(v[3])].append(timed_update(*v[1:]))
-    base = statistics.median(times[variants[0][0] + "1"])
+        for v, t in zip(variants, times):
+            t.append(timed_update(*v[1:]))
+    base = statistics.median(times[0])
     print(f"task {args.task}, default PPO config, one update of {storage.num_envs} envs x "
           f"{storage.num_transitions_per_env} steps, {args.repeats} repeats interleaved")
     print(f"{'optimiser':<30} {'threads':>7} {'median ms':>10} {'best ms':>8} {'ratio to first':>15}")
-    for v in variants:
-        t = times[v[0] + str(v[3])]
+    for v, t in zip(variants, times):
         med = statistics.median(t)
         print(f"{v[0]:<30} {v[3]:>7} {1e3 * med:>10.1f} {1e3 * min(t):>8.1f} {med / base:>15.2f}")
     return 0

@@ -33,9 +33,9 @@ import mujoco
 import numpy as np
 from humeral_head import vertices
 
+from shoulder_bench.authoring.fem.footprint import HUMERAL_HEAD
+
 ROOT = Path(__file__).resolve().parents[3]
-sys.path.insert(0, str(ROOT))
-from shoulder_bench.authoring.fem.footprint import HUMERAL_HEAD  # noqa: E402
 
 # (label, inclination deg, retroversion deg, arc deg)
 GEOMETRIES = (("Iannotti arc, Roberts retroversion, 3-D CT inclination", 137.7, 21.4, 156.0),
