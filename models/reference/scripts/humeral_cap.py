@@ -2,7 +2,8 @@
 tuberosity stands out of the head sphere: the geometry behind docs/fem.md "What remains of §2" (why the subscapularis'
 band cannot press on the humeral head, and what a greater tuberosity would add for the middle deltoid's).
 
-    python models/reference/scripts/humeral_cap.py /tmp/osim-rl-3.0.11/osim/models/Geometry/humerus.vtp
+    python models/reference/scripts/humeral_cap.py /tmp/osim-rl-3.0.11/osim/models/Geometry/humerus.vtp \
+        [--band isp --at 0 110 60 --at 0 120 60]
 
 (humerus.vtp as `humeral_head.py` fetches it.) The head sphere is footprint.HUMERAL_HEAD (fitted by humeral_head.py).
 Its articular part, a spherical cap, is placed from published proximal-humerus geometry, not fitted (the parent's mesh
@@ -22,18 +23,21 @@ head's centre. Sources:
   cadaveric database): retroversion 39.9 deg (males), neck angle 137.7 deg; the upper end of the usual 25-35 deg.
 Prints, for each tendon insertion site on the MJCF humerus, its distance outside the head sphere and its angle from
 the pole under each geometry (inside the cap: less than half the arc), and the proximal humerus' most lateral vertices'
-distances outside the sphere (the greater tuberosity).
+distances outside the sphere (the greater tuberosity). With --band TENDON and --at poses: that tendon's taut band on
+the head sphere (`bands.solve_poses`, a = 1) at each pose, its moment arms and where it touches the sphere (nodes
+within 0.1 mm of it), as angles from the pole: how much of the contact lies beyond the anatomical neck.
 """
 from __future__ import annotations
 
-import sys
+import argparse
 from pathlib import Path
 
 import mujoco
 import numpy as np
 from humeral_head import vertices
 
-from shoulder_bench.authoring.fem.footprint import HUMERAL_HEAD
+from shoulder_bench.authoring.fem import bands
+from shoulder_bench.authoring.fem.footprint import HUMERAL_HEAD, FootprintSheet
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -58,18 +62,50 @@ def frame(x: np.ndarray, centre: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
     return shaft, across, posterior if posterior[0] < 0 else -posterior  # the humerus frame's x is anterior
 
 
-def main(path: str) -> None:
+def pole_of(shaft, medial, posterior, inclination: float, retroversion: float) -> np.ndarray:
+    """The head axis (unit, humerus frame) at `inclination` and `retroversion` (deg)."""
+    up, back = np.radians(inclination - 90.0), np.radians(retroversion)
+    return np.sin(up) * shaft + np.cos(up) * (np.cos(back) * medial + np.sin(back) * posterior)
+
+
+def band_contact(tendon: str, poses, axes) -> None:
+    """Print `tendon`'s band at each pose: moment arms and its contact with the head sphere against each pole."""
+    if bands.surface(tendon) != "head":
+        raise SystemExit(f"--band {tendon}: its band presses on {bands.SURFACE_TEXT[bands.surface(tendon)]}, not the "
+                         f"head sphere (bands.SURFACE: {', '.join(bands.SURFACE)})")
+    c, radius = np.asarray(HUMERAL_HEAD["centre_m"]), HUMERAL_HEAD["radius_m"]
+    sheet = FootprintSheet(tendon, "full", surface="head", rest="pose")
+    for pose in poses:
+        sol = sheet.solve(pose)
+        b = sheet.bodies["head"]  # the humerus, posed by the solve
+        pos, rot = sheet.d.xpos[b], sheet.d.xmat[b].reshape(3, 3)
+        local = (sol["nodes"].reshape(-1, 3) - pos) @ rot - c  # humerus frame, from the head's centre
+        r = np.linalg.norm(local, axis=1)
+        touching = r - radius < 1e-4
+        print(f"{tendon} band at {list(pose)} deg: moment arms (plane, elevation, rotation) "
+              f"{np.round(np.asarray(sol['moment_arm_m']) * 1e3, 1).tolist()} mm, tension {sol['tension_N']:.0f} N, "
+              f"{touching.sum()} of {len(r)} nodes on the sphere")
+        for label, pole, arc in axes:
+            angle = np.degrees(np.arccos(local[touching] @ pole / r[touching]))
+            print(f"  {label}: their angles from the pole {angle.min():.0f}-{angle.max():.0f} deg, "
+                  f"{(angle > arc / 2).sum()} beyond the cap's edge at {arc / 2:.1f} deg")
+
+
+def main(path: str, tendon: str | None = None, poses=()) -> None:
     x = vertices(path)
     c, radius = np.asarray(HUMERAL_HEAD["centre_m"]), HUMERAL_HEAD["radius_m"]
     shaft, medial, posterior = frame(x, c)
+    if tendon is not None:
+        band_contact(tendon, poses, [(label, pole_of(shaft, medial, posterior, i, r), arc)
+                                     for label, i, r, arc in GEOMETRIES])
+        return
     m = mujoco.MjModel.from_xml_path(str(ROOT / "models" / "shoulder_full_task.xml"))
     sites = {t: m.site_pos[m.site(s).id] - c for t, s in INSERTIONS.items()}
     print(f"head sphere: radius {radius * 1e3:.2f} mm; shaft axis {np.round(shaft, 3).tolist()} (humerus frame)")
     print("insertion site: outside the sphere (mm) " + " ".join(f"{t} {(np.linalg.norm(v) - radius) * 1e3:+.1f}"
                                                                for t, v in sites.items()))
     for label, inclination, retroversion, arc in GEOMETRIES:
-        up, back = np.radians(inclination - 90.0), np.radians(retroversion)
-        pole = np.sin(up) * shaft + np.cos(up) * (np.cos(back) * medial + np.sin(back) * posterior)
+        pole = pole_of(shaft, medial, posterior, inclination, retroversion)
         angle = {t: np.degrees(np.arccos(v @ pole / np.linalg.norm(v))) for t, v in sites.items()}
         inside = [t for t, a in angle.items() if a < arc / 2 and np.linalg.norm(sites[t]) < radius]
         print(f"{label} (inclination {inclination}, retroversion {retroversion}, arc {arc} deg): pole "
@@ -86,4 +122,12 @@ def main(path: str) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("humerus", help="the parent's humerus.vtp")
+    parser.add_argument("--band", default=None, help="a tendon whose band presses on the head sphere (e.g. isp)")
+    parser.add_argument("--at", nargs=3, type=float, action="append", default=[], metavar=("PLANE", "ELV", "ROT"),
+                        help="a pose (deg) for --band; repeatable")
+    args = parser.parse_args()
+    if (args.band is None) != (not args.at):
+        parser.error("--band and --at go together")
+    main(args.humerus, args.band, args.at)
