@@ -9,8 +9,9 @@ the frames/s.
 PPO configs are overrides of `PPOConfig`'s defaults before its search (`BEFORE`: 256 envs, 5 epochs x 4 mini-batches,
 24 steps; `CONFIGS` below; `default` is `BEFORE` itself; rounds 1-2 chose `e1m8t1_n64`, round 3 `n64_s12`; round 4
 tried `s12_*` from it and kept it; round 5 chose `s12_fused`, today's `PPOConfig()`; round 6 tried the overlap, not
-kept; round 7 the return's horizon and scale, not kept; round 8 a smaller value network). BDQ configs (`BDQ_CONFIGS`,
-task `abduction_4m_discrete`) are overrides of the task's preset before its search (`BDQ_BEFORE`, `train.dqn.PRESETS`;
+kept; round 7 the return's horizon and scale, not kept; round 8 a smaller value network, kept for abduction_4m; round
+9 the update's clip ranges, lambda and value loss weight from there). BDQ configs (`BDQ_CONFIGS`, task
+`abduction_4m_discrete`) are overrides of the task's preset before its search (`BDQ_BEFORE`, `train.dqn.PRESETS`;
 round 1 fewer gradient steps per frame, rounds 2-4 n-step returns, exploration, gamma and the target update, none
 kept; round 5 the env stepped beside the updates, kept; rounds 6-7 a lower gamma and half the learning rate with it,
 not kept; round 8 smaller shared layers). Runs are normal run folders (`<out>/<config>/<seed>`), so a rerun resumes or
@@ -32,6 +33,7 @@ BEFORE = {"num_envs": 256, "num_learning_epochs": 5, "num_mini_batches": 4, "ste
           "overlap_env": False, "critic_hidden_dims": []}
 N64 = {"num_learning_epochs": 1, "num_mini_batches": 8, "num_envs": 64}  # rounds 1-2's choice
 S12 = {**N64, "steps_per_env": 12}  # round 3's choice
+C128 = {**S12, "fused_adam": True, "critic_hidden_dims": [128, 128]}  # round 8's choice
 CONFIGS = {
     "default": {},
     "t2": {"update_threads": 2},
@@ -74,8 +76,14 @@ CONFIGS = {
     # round 8: a smaller value network (the policy stays the paper's 3 x 250): the critic's forward and backward
     # are half of the update's arithmetic (benchmarks/ppo_update.py --critic)
     "s12_c250": {**S12, "fused_adam": True, "critic_hidden_dims": [250]},
-    "s12_c128": {**S12, "fused_adam": True, "critic_hidden_dims": [128, 128]},
+    "s12_c128": C128,
     "s12_c64": {**S12, "fused_adam": True, "critic_hidden_dims": [64, 64]},
+    # round 9: the update's remaining knobs from round 8's choice (the abduction_4m preset): the clip range, the
+    # gradient-norm clip, GAE's lambda, the value loss' weight
+    "c128_clip03": {**C128, "clip_param": 0.3},
+    "c128_gn5": {**C128, "max_grad_norm": 5.0},
+    "c128_lam098": {**C128, "lam": 0.98},
+    "c128_vl05": {**C128, "value_loss_coef": 0.5},
 }
 # BDQ-4: the preset before its search (train.dqn.PRESETS["abduction_4m_discrete"] then: 32 envs, one gradient step of
 # 256 per vec step, lr 5e-4, 2 x 256, the env stepped between the gradient steps)
