@@ -25,7 +25,8 @@ Prints, for each tendon insertion site on the MJCF humerus, its distance outside
 the pole under each geometry (inside the cap: less than half the arc), and the proximal humerus' most lateral vertices'
 distances outside the sphere (the greater tuberosity). With --band TENDON and --at poses: that tendon's taut band on
 the head sphere (`bands.solve_poses`, a = 1) at each pose, its moment arms and where it touches the sphere (nodes
-within 0.1 mm of it), as angles from the pole: how much of the contact lies beyond the anatomical neck.
+within 0.1 mm of it), as angles from the pole: how much of the contact lies beyond the anatomical neck, and where
+the parent's bone mesh lies along the rays from the head's centre through those nodes.
 """
 from __future__ import annotations
 
@@ -68,8 +69,36 @@ def pole_of(shaft, medial, posterior, inclination: float, retroversion: float) -
     return np.sin(up) * shaft + np.cos(up) * (np.cos(back) * medial + np.sin(back) * posterior)
 
 
-def band_contact(tendon: str, poses, axes) -> None:
-    """Print `tendon`'s band at each pose: moment arms and its contact with the head sphere against each pole."""
+def triangles(path: str) -> np.ndarray:
+    """The mesh's triangles (T, 3, 3) from an ASCII VTK PolyData file (`vertices` and its <Polys>)."""
+    polys = open(path).read().split("<Polys>")[1]
+    ids = {name: np.array(polys.split(f'Name="{name}"')[1].split(">", 1)[1].split("<")[0].split(), int)
+           for name in ("connectivity", "offsets")}
+    if not np.all(np.diff(np.r_[0, ids["offsets"]]) == 3):
+        raise SystemExit(f"{path}: not a triangle mesh")
+    return vertices(path)[ids["connectivity"].reshape(-1, 3)]
+
+
+def bone_along(tri: np.ndarray, origin: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """Distance from `origin` to the first mesh triangle along each unit direction (Moller-Trumbore; NaN: none)."""
+    v0, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    out = np.full(len(directions), np.nan)
+    for k, d in enumerate(directions):
+        p = np.cross(d, e2)
+        det = (e1 * p).sum(1)
+        inv = np.divide(1.0, det, out=np.zeros_like(det), where=np.abs(det) > 1e-14)
+        tv = origin - v0
+        q = np.cross(tv, e1)
+        u, w, t = (tv * p).sum(1) * inv, (q @ d) * inv, (e2 * q).sum(1) * inv
+        hit = (inv != 0) & (u >= 0) & (w >= 0) & (u + w <= 1) & (t > 0)
+        if hit.any():
+            out[k] = t[hit].min()
+    return out
+
+
+def band_contact(tendon: str, poses, axes, tri: np.ndarray) -> None:
+    """Print `tendon`'s band at each pose: moment arms, its contact with the head sphere against each pole, and how
+    far the parent's bone surface lies from the sphere along the rays through the touching nodes (`tri`)."""
     if bands.surface(tendon) != "head":
         raise SystemExit(f"--band {tendon}: its band presses on {bands.SURFACE_TEXT[bands.surface(tendon)]}, not the "
                          f"head sphere (bands.SURFACE: {', '.join(bands.SURFACE)})")
@@ -85,10 +114,19 @@ def band_contact(tendon: str, poses, axes) -> None:
         print(f"{tendon} band at {list(pose)} deg: moment arms (plane, elevation, rotation) "
               f"{np.round(np.asarray(sol['moment_arm_m']) * 1e3, 1).tolist()} mm, tension {sol['tension_N']:.0f} N, "
               f"{touching.sum()} of {len(r)} nodes on the sphere")
+        rays = local[touching] / r[touching, None]
+        bone = (bone_along(tri, c, rays) - radius) * 1e3  # mm; negative: the bone lies inside the sphere
         for label, pole, arc in axes:
-            angle = np.degrees(np.arccos(local[touching] @ pole / r[touching]))
+            angle = np.degrees(np.arccos(rays @ pole))
+            beyond = angle > arc / 2
             print(f"  {label}: their angles from the pole {angle.min():.0f}-{angle.max():.0f} deg, "
-                  f"{(angle > arc / 2).sum()} beyond the cap's edge at {arc / 2:.1f} deg")
+                  f"{beyond.sum()} beyond the cap's edge at {arc / 2:.1f} deg; the bone mesh along their rays, from "
+                  f"the sphere: {_span(bone[~beyond])} mm on the cap, {_span(bone[beyond])} mm beyond it")
+
+
+def _span(values: np.ndarray) -> str:
+    values = values[np.isfinite(values)]
+    return f"{values.min():+.1f} to {values.max():+.1f} (median {np.median(values):+.1f})" if len(values) else "none"
 
 
 def main(path: str, tendon: str | None = None, poses=()) -> None:
@@ -97,7 +135,7 @@ def main(path: str, tendon: str | None = None, poses=()) -> None:
     shaft, medial, posterior = frame(x, c)
     if tendon is not None:
         band_contact(tendon, poses, [(label, pole_of(shaft, medial, posterior, i, r), arc)
-                                     for label, i, r, arc in GEOMETRIES])
+                                     for label, i, r, arc in GEOMETRIES], triangles(path))
         return
     m = mujoco.MjModel.from_xml_path(str(ROOT / "models" / "shoulder_full_task.xml"))
     sites = {t: m.site_pos[m.site(s).id] - c for t, s in INSERTIONS.items()}
