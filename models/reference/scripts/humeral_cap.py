@@ -22,11 +22,12 @@ head's centre. Sources:
 - A 3-D study of 559 cadaveric humeri pairs (Three-dimensional measurement of humeral retroversion on a large academic
   cadaveric database): retroversion 39.9 deg (males), neck angle 137.7 deg; the upper end of the usual 25-35 deg.
 Prints, for each tendon insertion site on the MJCF humerus, its distance outside the head sphere and its angle from
-the pole under each geometry (inside the cap: less than half the arc), and the proximal humerus' most lateral vertices'
-distances outside the sphere (the greater tuberosity). With --band TENDON and --at poses: that tendon's taut band on
-the head sphere (`bands.solve_poses`, a = 1) at each pose, its moment arms and where it touches the sphere (nodes
-within 0.1 mm of it), as angles from the pole: how much of the contact lies beyond the anatomical neck, and where
-the parent's bone mesh lies along the rays from the head's centre through those nodes.
+the pole under each geometry (inside the cap: less than half the arc), and the proximal humerus' most lateral
+vertices' distances outside the sphere (the greater tuberosity). With --band TENDON and --at poses: that tendon's taut
+band on the head sphere at each pose (`FootprintSheet(..., rest="pose").solve`: the ramp to a = 1, isp's table's rule;
+dan's and dpo's tables keep the least-energy equilibrium, `bands.LEAST_ENERGY`), its moment arms and where it touches
+the sphere (nodes within 0.1 mm of it), as angles from the pole: how much of the contact lies beyond the anatomical
+neck, and where the parent's bone mesh lies along the rays from the head's centre through those nodes.
 """
 from __future__ import annotations
 
