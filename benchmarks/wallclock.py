@@ -15,9 +15,10 @@ kept; round 7 the return's horizon and scale, not kept; round 8 a smaller value 
 round 1 fewer gradient steps per frame, rounds 2-4 n-step returns, exploration, gamma and the target update, none
 kept; round 5 the env stepped beside the updates, kept; rounds 6-7 a lower gamma and half the learning rate with it,
 not kept; round 8 smaller shared layers). Runs are normal run folders (`<out>/<config>/<seed>`), so a rerun resumes or
-reuses finished ones; `<out>/table.md` is rewritten at the end. The runs alternate configs within each seed (seed 0 of
-every config, then seed 1, ...), so that a change in the machine's load spreads over all configs. Wall times are this
-machine's: compare configs only within one table.
+reuses finished ones; `<out>/table.md` and the figure `<out>/wallclock.png` (test MAE against training seconds and
+frames, each seed and the median, the goals marked) are rewritten at the end. The runs alternate configs within each
+seed (seed 0 of every config, then seed 1, ...), so that a change in the machine's load spreads over all configs. Wall
+times are this machine's: compare configs only within one table.
 """
 from __future__ import annotations
 
@@ -185,7 +186,22 @@ def main(argv=None) -> int:
     text = table(results, args.task, args.algo)
     (args.out / "table.md").write_text(text)
     print(text)
+    for path in figure(results, args.task, args.algo, args.out / "wallclock.png"):
+        print(path)
     return 0
+
+
+# issue 15's goals, median of 3 seeds: (training seconds, test MAE deg, label)
+GOALS = {"ppo": ((8.0, 1.0, "goal: 1 deg in 8 s"), (20.0, 0.5, "goal: 0.5 deg in 20 s")),
+         "bdq": ((20.0, 1.0, "goal: 1 deg in 20 s"),)}
+
+
+def figure(results: dict[str, list[dict]], task: str, algo: str, out: Path) -> list[Path]:
+    """`<out>` (and its SVG): every run's test MAE against training seconds and frames, the goals marked."""
+    from shoulder_bench.eval.plots import save, wallclock_figure
+
+    curves = {name: [m["evaluations"] for m in runs] for name, runs in results.items()}
+    return save(wallclock_figure(curves, GOALS[algo], f"{algo.upper()} on {task}: time to accuracy"), out)
 
 
 if __name__ == "__main__":

@@ -201,6 +201,42 @@ def sample_efficiency_figure(panels: dict[str, list[tuple[str, dict]]]):
     return fig
 
 
+def wallclock_figure(results: dict[str, list[list[dict]]], goals=(), title: str = ""):
+    """Test MAE against training wall time (evaluations excluded) and against frames, one colour per config: each
+    seed a thin line, the median over seeds at each evaluation bold (plotted at the seeds' median wall time).
+    results: config -> one `metrics.json` "evaluations" list per seed; goals: (seconds, deg, label) marked on the
+    wall-time panel; the thresholds 1 and 0.5 deg dotted."""
+    fig, (ax_s, ax_f) = plt.subplots(1, 2, figsize=(12, 4.5), sharey=True)
+    for k, (name, seeds) in enumerate(results.items()):
+        colour = f"C{k % 10}"
+        n = min(len(e) for e in seeds) if seeds else 0
+        for evals in seeds:
+            mae = [e["mae_deg"] for e in evals]
+            ax_s.plot([e["training_s"] for e in evals], mae, color=colour, lw=0.8, alpha=0.35)
+            ax_f.plot([e["frames"] for e in evals], mae, color=colour, lw=0.8, alpha=0.35)
+        if n:
+            at = [np.median(np.array([[e[i][key] for i in range(n)] for e in seeds]), axis=0)
+                  for key in ("training_s", "frames", "mae_deg")]
+            label = f"{name} ({len(seeds)} seeds)"
+            ax_s.plot(at[0], at[2], color=colour, lw=2, label=label)
+            ax_f.plot(at[1], at[2], color=colour, lw=2, label=label)
+    for seconds, deg, label in goals:
+        ax_s.plot([seconds], [deg], marker="X", ms=10, color="black", ls="none")
+        ax_s.annotate(label, (seconds, deg), textcoords="offset points", xytext=(6, 6), fontsize=8)
+    for ax in (ax_s, ax_f):
+        for deg in (1.0, 0.5):
+            ax.axhline(deg, color="gray", ls=":", lw=1)
+        ax.set(yscale="log")
+        ax.grid(alpha=0.3)
+    ax_s.set(xlabel="training wall time, evaluations excluded (s)", ylabel="test-set MAE (deg)",
+             title=title or "time to accuracy")
+    ax_f.set(xlabel="training frames", title="the same against frames (sample efficiency)")
+    ax_f.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda x, _: f"{x / 1e3:g}k"))
+    ax_f.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
 def plot_trajectory(specs: list[str], out: Path, task: str | None = None, trajectories: str = "test",
                     index: int = 0) -> list[Path]:
     """Per policy, one column: target and angle (top), each muscle's activation (bottom)."""

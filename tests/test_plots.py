@@ -1,4 +1,5 @@
 """Paper-style figures: trajectory with activations, error box plots, activation patterns, as PNG and SVG."""
+import numpy as np
 import pytest
 from PIL import Image
 
@@ -31,3 +32,22 @@ def test_bad_figure_requests_name_the_problem(tmp_path, capsys):
     assert ".png, .svg or .pdf" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["plot", "errors", "--out", str(tmp_path / "e.png")])  # --policy is required
+
+
+def test_wallclock_figure_draws_each_seed_and_the_median(tmp_path):
+    from shoulder_bench.eval.plots import save, wallclock_figure
+
+    def run(scale, n):  # one seed's evaluations: MAE falling with time, every 10k frames
+        return [{"frames": 10_000 * (i + 1), "training_s": scale * (i + 1), "mae_deg": 20.0 / (i + 1),
+                 "rmse_deg": 1.0, "crashes": 0} for i in range(n)]
+
+    fig = wallclock_figure({"a": [run(1.0, 5), run(1.2, 4), run(2.0, 5)], "b": [run(0.8, 5)]}, [(8.0, 1.0, "goal")],
+                           "t")
+    ax_s, ax_f = fig.axes
+    # per config: its seeds' thin lines, then the median over seeds (up to the shortest seed: 4 evaluations)
+    assert [len(line.get_xdata()) for line in ax_s.lines[:4]] == [5, 4, 5, 4]
+    np.testing.assert_allclose(ax_s.lines[3].get_xdata(), [1.2, 2.4, 3.6, 4.8])  # the seeds' median seconds
+    np.testing.assert_allclose(ax_f.lines[3].get_ydata(), [20.0, 10.0, 20.0 / 3, 5.0])
+    assert [t.get_text() for t in ax_f.get_legend().get_texts()] == ["a (3 seeds)", "b (1 seeds)"]
+    paths = save(fig, tmp_path / "w.png")
+    assert [p.name for p in paths] == ["w.png", "w.svg"] and all(_written(p) for p in paths[:1])
