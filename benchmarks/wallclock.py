@@ -85,6 +85,12 @@ CONFIGS = {
     "c128_gn5": {**C128, "max_grad_norm": 5.0},
     "c128_lam098": {**C128, "lam": 0.98},
     "c128_vl05": {**C128, "value_loss_coef": 0.5},
+    # round 10: exploration and step size the other way from round 4 (which tried less noise and a higher learning
+    # rate), and a number of mini-batches between round 4's 4 and the default 8
+    "c128_std1": {**C128, "init_std": 1.0},
+    "c128_lr5e-4": {**C128, "learning_rate": 5e-4},
+    "c128_lr3e-4": {**C128, "learning_rate": 3e-4},
+    "c128_m6": {**C128, "num_mini_batches": 6},
 }
 # BDQ-4: the preset before its search (train.dqn.PRESETS["abduction_4m_discrete"] then: 32 envs, one gradient step of
 # 256 per vec step, lr 5e-4, 2 x 256, the env stepped between the gradient steps)
