@@ -10,15 +10,16 @@ PPO configs are overrides of `PPOConfig`'s defaults before its search (`BEFORE`:
 24 steps; `CONFIGS` below; `default` is `BEFORE` itself; rounds 1-2 chose `e1m8t1_n64`, round 3 `n64_s12`; round 4
 tried `s12_*` from it and kept it; round 5 chose `s12_fused`, today's `PPOConfig()`; round 6 tried the overlap, not
 kept; round 7 the return's horizon and scale, not kept; round 8 a smaller value network, kept for abduction_4m; round
-9 the update's clip ranges, lambda and value loss weight from there). BDQ configs (`BDQ_CONFIGS`, task
-`abduction_4m_discrete`) are overrides of the task's preset before its search (`BDQ_BEFORE`, `train.dqn.PRESETS`;
-round 1 fewer gradient steps per frame, rounds 2-4 n-step returns, exploration, gamma and the target update, none
-kept; round 5 the env stepped beside the updates, kept; rounds 6-7 a lower gamma and half the learning rate with it,
-not kept; round 8 smaller shared layers). Runs are normal run folders (`<out>/<config>/<seed>`), so a rerun resumes or
-reuses finished ones; `<out>/table.md` and the figure `<out>/wallclock.png` (test MAE against training seconds and
-frames, each seed and the median, the goals marked) are rewritten at the end. The runs alternate configs within each
-seed (seed 0 of every config, then seed 1, ...), so that a change in the machine's load spreads over all configs. Wall
-times are this machine's: compare configs only within one table.
+9 the update's clip ranges, lambda and value loss weight from there, not kept; round 10 more exploration noise, lower
+learning rates and 6 mini-batches, not kept). BDQ configs (`BDQ_CONFIGS`, task `abduction_4m_discrete`) are overrides
+of the task's preset before its search (`BDQ_BEFORE`, `train.dqn.PRESETS`; round 1 fewer gradient steps per frame,
+rounds 2-4 n-step returns, exploration, gamma and the target update, none kept; round 5 the env stepped beside the
+updates, kept; rounds 6-7 a lower gamma and half the learning rate with it, not kept; round 8 smaller shared layers).
+Runs are normal run folders (`<out>/<config>/<seed>`), so a rerun resumes or reuses finished ones; `<out>/table.md`
+and the figure `<out>/wallclock.png` (test MAE against training seconds and frames, each seed and the median, the
+goals marked) are rewritten at the end. The runs alternate configs within each seed (seed 0 of every config, then seed
+1, ...), so that a change in the machine's load spreads over all configs. Wall times are this machine's: compare
+configs only within one table.
 """
 from __future__ import annotations
 
