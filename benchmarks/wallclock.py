@@ -207,7 +207,8 @@ def figure(results: dict[str, list[dict]], task: str, algo: str, out: Path) -> l
     """`<out>` (and its SVG): every run's test MAE against training seconds and frames, the goals marked."""
     from shoulder_bench.eval.plots import save, wallclock_figure
 
-    curves = {name: [m["evaluations"] for m in runs] for name, runs in results.items()}
+    curves = {name: [m.get("evaluations") or [] for m in runs]  # a run folder from before the curve was kept: none
+              for name, runs in results.items()}
     return save(wallclock_figure(curves, GOALS[algo], f"{algo.upper()} on {task}: time to accuracy"), out)
 
 
