@@ -232,7 +232,8 @@ def wallclock_figure(results: dict[str, list[list[dict]]], goals=(), title: str 
              title=title or "time to accuracy")
     ax_f.set(xlabel="training frames", title="the same against frames (sample efficiency)")
     ax_f.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda x, _: f"{x / 1e3:g}k"))
-    ax_f.legend(fontsize=7)
+    if ax_f.get_legend_handles_labels()[0]:  # no curve at all: no legend
+        ax_f.legend(fontsize=7)
     fig.tight_layout()
     return fig
 
