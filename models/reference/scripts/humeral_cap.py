@@ -70,18 +70,20 @@ def pole_of(shaft, medial, posterior, inclination: float, retroversion: float) -
     return np.sin(up) * shaft + np.cos(up) * (np.cos(back) * medial + np.sin(back) * posterior)
 
 
-def triangles(path: str) -> np.ndarray:
-    """The mesh's triangles (T, 3, 3) from an ASCII VTK PolyData file (`vertices` and its <Polys>)."""
+def triangles(path: str, x: np.ndarray) -> np.ndarray:
+    """The mesh's triangles (T, 3, 3): the <Polys> of the ASCII VTK PolyData file at `path` over its vertices `x`
+    (`vertices(path)`)."""
     polys = open(path).read().split("<Polys>")[1]
     ids = {name: np.array(polys.split(f'Name="{name}"')[1].split(">", 1)[1].split("<")[0].split(), int)
            for name in ("connectivity", "offsets")}
     if not np.all(np.diff(np.r_[0, ids["offsets"]]) == 3):
         raise SystemExit(f"{path}: not a triangle mesh")
-    return vertices(path)[ids["connectivity"].reshape(-1, 3)]
+    return x[ids["connectivity"].reshape(-1, 3)]
 
 
 def bone_along(tri: np.ndarray, origin: np.ndarray, directions: np.ndarray) -> np.ndarray:
-    """Distance from `origin` to the first mesh triangle along each unit direction (Moller-Trumbore; NaN: none)."""
+    """Distance from `origin` to the first mesh triangle along each unit direction (Moller-Trumbore; NaN: none).
+    Written out because trimesh's ray queries need rtree, which the project does not install."""
     v0, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
     out = np.full(len(directions), np.nan)
     for k, d in enumerate(directions):
@@ -136,7 +138,7 @@ def main(path: str, tendon: str | None = None, poses=()) -> None:
     shaft, medial, posterior = frame(x, c)
     if tendon is not None:
         band_contact(tendon, poses, [(label, pole_of(shaft, medial, posterior, i, r), arc)
-                                     for label, i, r, arc in GEOMETRIES], triangles(path))
+                                     for label, i, r, arc in GEOMETRIES], triangles(path, x))
         return
     m = mujoco.MjModel.from_xml_path(str(ROOT / "models" / "shoulder_full_task.xml"))
     sites = {t: m.site_pos[m.site(s).id] - c for t, s in INSERTIONS.items()}
