@@ -157,12 +157,20 @@ def _curves(run: Path) -> tuple[str, dict]:
     if not any(steps for steps, _ in series.values()):
         raise ValueError(f"run folder {run}: tb/ holds none of the training curves ({', '.join(CURVES)}); has the "
                          f"run logged anything yet?")
-    return f"{cfg['algo']} {cfg['task']} seed {cfg['seed']}", series
+    options = cfg.get("options") or {}
+    shown = "".join(f", {k}={v}" for k, v in sorted(options.items()))
+    return f"{cfg['algo']} {cfg['task']} seed {cfg['seed']}{shown}", series
 
 
 def plot_curves(runs: list[Path], out: Path) -> list[Path]:
+    """Each run's curves, labelled by algorithm, task, seed and task options; runs those leave alike (another config,
+    another folder) also by their folder."""
     checked(out)
-    return save(_curves_figure([_curves(Path(run)) for run in runs]), out)  # every run checked before drawing
+    curves = [_curves(Path(run)) for run in runs]  # every run checked before drawing
+    labels = [label for label, _ in curves]
+    curves = [(f"{label} ({run})" if labels.count(label) > 1 else label, series)
+              for run, (label, series) in zip(runs, curves)]
+    return save(_curves_figure(curves), out)
 
 
 def _curves_figure(curves: list[tuple[str, dict]]):

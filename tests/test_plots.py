@@ -51,3 +51,29 @@ def test_wallclock_figure_draws_each_seed_and_the_median(tmp_path):
     assert [t.get_text() for t in ax_f.get_legend().get_texts()] == ["a (3 seeds)", "b (1 seeds)"]
     paths = save(fig, tmp_path / "w.png")
     assert [p.name for p in paths] == ["w.png", "w.svg"] and all(_written(p) for p in paths[:1])
+
+
+def test_curves_name_each_run_by_its_options_and_else_by_its_folder(tmp_path, monkeypatch, capsys):
+    import json
+
+    from torch.utils.tensorboard import SummaryWriter
+
+    from shoulder_bench.eval import plots
+
+    def run(folder, **options):  # a run folder as `train` writes it, with a test/mae_deg history
+        folder.mkdir(parents=True)
+        cfg = {"task": "track_3dof", "algo": "ppo", "seed": 0, "frames": 2000, "config": {}}
+        (folder / "config.json").write_text(json.dumps(cfg | ({"options": options} if options else {})))
+        with SummaryWriter(str(folder / "tb")) as w:
+            for step in (1000, 2000):
+                w.add_scalar("test/mae_deg", 5.0 / step, step)
+        return folder
+
+    runs = [run(tmp_path / "mjcf" / "0"), run(tmp_path / "band" / "0", line_of_action="band"),
+            run(tmp_path / "other" / "0")]  # the first and last differ only in their folders (e.g. a config)
+    drawn = []
+    monkeypatch.setattr(plots, "save", lambda fig, out: drawn.append(fig) or [out])
+    assert main(["plot", "curves", *map(str, runs), "--out", str(tmp_path / "c.png")]) == 0
+    labels = [t.get_text() for t in drawn[0].axes[1].get_legend().get_texts()]
+    assert labels[:3] == [f"ppo track_3dof seed 0 ({runs[0]})", "ppo track_3dof seed 0, line_of_action=band",
+                          f"ppo track_3dof seed 0 ({runs[2]})"]
