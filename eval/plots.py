@@ -164,22 +164,29 @@ def _curves(run: Path) -> tuple[str, dict]:
 
 def plot_curves(runs: list[Path], out: Path) -> list[Path]:
     """Each run's curves, labelled by algorithm, task, seed and task options; runs those leave alike (another config,
-    another folder) also by their folder."""
+    another folder) also by their folder. The paper's PPO-4 accuracy is drawn where a run is of a 1-DOF task."""
+    from shoulder_bench.eval.evaluate import run_config
+    from shoulder_bench.tasks import TASKS
+
     checked(out)
     curves = [_curves(Path(run)) for run in runs]  # every run checked before drawing
     labels = [label for label, _ in curves]
     curves = [(f"{label} ({run})" if labels.count(label) > 1 else label, series)
               for run, (label, series) in zip(runs, curves)]
-    return save(_curves_figure(curves), out)
+    paper = any(run_config(run)["task"] in TASKS for run in runs)  # the paper's accuracy is a 1-DOF task's
+    return save(_curves_figure(curves, paper), out)
 
 
-def _curves_figure(curves: list[tuple[str, dict]]):
+def _curves_figure(curves: list[tuple[str, dict]], paper: bool = True):
+    """Training reward and test MAE against frames, a line per run; paper: the paper's PPO-4 test MAE (5.15 deg,
+    the 1-DOF abduction task) dashed."""
     fig, (ax_r, ax_e) = plt.subplots(1, 2, figsize=(11, 4))
     for label, series in curves:
         ax_r.plot(*series["train/mean_return"], label=label)
         ax_e.plot(*series["test/mae_deg"], marker="o", label=label)
     ax_r.set(xlabel="frames", ylabel="mean episode return (recent training episodes)", title="training reward")
-    ax_e.axhline(5.15, color="gray", ls="--", lw=1, label="paper PPO-4 (their model)")
+    if paper:
+        ax_e.axhline(5.15, color="gray", ls="--", lw=1, label="paper PPO-4 (their model)")
     ax_e.set(xlabel="frames", ylabel="test-set MAE (deg)", title="fixed test set (100 trajectories)", yscale="log")
     for ax in (ax_r, ax_e):
         ax.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda x, _: f"{x / 1e6:g} M"))

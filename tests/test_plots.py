@@ -60,9 +60,9 @@ def test_curves_name_each_run_by_its_options_and_else_by_its_folder(tmp_path, mo
 
     from shoulder_bench.eval import plots
 
-    def run(folder, **options):  # a run folder as `train` writes it, with a test/mae_deg history
+    def run(folder, task="track_3dof", **options):  # a run folder as `train` writes it, with a test/mae_deg history
         folder.mkdir(parents=True)
-        cfg = {"task": "track_3dof", "algo": "ppo", "seed": 0, "frames": 2000, "config": {}}
+        cfg = {"task": task, "algo": "ppo", "seed": 0, "frames": 2000, "config": {}}
         (folder / "config.json").write_text(json.dumps(cfg | ({"options": options} if options else {})))
         with SummaryWriter(str(folder / "tb")) as w:
             for step in (1000, 2000):
@@ -75,5 +75,10 @@ def test_curves_name_each_run_by_its_options_and_else_by_its_folder(tmp_path, mo
     monkeypatch.setattr(plots, "save", lambda fig, out: drawn.append(fig) or [out])
     assert main(["plot", "curves", *map(str, runs), "--out", str(tmp_path / "c.png")]) == 0
     labels = [t.get_text() for t in drawn[0].axes[1].get_legend().get_texts()]
-    assert labels[:3] == [f"ppo track_3dof seed 0 ({runs[0]})", "ppo track_3dof seed 0, line_of_action=band",
-                          f"ppo track_3dof seed 0 ({runs[2]})"]
+    assert labels == [f"ppo track_3dof seed 0 ({runs[0]})", "ppo track_3dof seed 0, line_of_action=band",
+                      f"ppo track_3dof seed 0 ({runs[2]})"]  # no paper line: its 5.15 deg is a 1-DOF task's
+    one_dof = run(tmp_path / "abduction" / "0", task="abduction_4m")
+    assert main(["plot", "curves", str(runs[1]), str(one_dof), "--out", str(tmp_path / "d.png")]) == 0
+    labels = [t.get_text() for t in drawn[1].axes[1].get_legend().get_texts()]
+    assert labels == ["ppo track_3dof seed 0, line_of_action=band", "ppo abduction_4m seed 0",
+                      "paper PPO-4 (their model)"]
