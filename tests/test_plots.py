@@ -53,7 +53,7 @@ def test_wallclock_figure_draws_each_seed_and_the_median(tmp_path):
     assert [p.name for p in paths] == ["w.png", "w.svg"] and all(_written(p) for p in paths[:1])
 
 
-def test_curves_name_each_run_by_its_options_and_else_by_its_folder(tmp_path, monkeypatch, capsys):
+def test_curves_name_each_run_by_its_options_and_else_by_its_folder(tmp_path, monkeypatch):
     import json
 
     from torch.utils.tensorboard import SummaryWriter
