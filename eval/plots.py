@@ -148,17 +148,18 @@ def scalars(run: Path, tag: str | None = None):
     return series(tag) if tag is not None else {t: series(t) for t in CURVES}
 
 
-def _curves(run: Path) -> tuple[str, dict]:
-    """(legend label, the CURVES series) of one run, checked: a clear error naming the run and what is missing."""
+def _curves(run: Path, cfg: dict | None = None) -> tuple[str, dict]:
+    """(legend label, the CURVES series) of one run, checked: a clear error naming the run and what is missing.
+    cfg: its config.json as `run_config` reads it (read here when not given)."""
+    from shoulder_bench.eval.board_columns import options_text
     from shoulder_bench.eval.evaluate import run_config
 
-    cfg = run_config(run)
+    cfg = cfg if cfg is not None else run_config(run)
     series = scalars(run)
     if not any(steps for steps, _ in series.values()):
         raise ValueError(f"run folder {run}: tb/ holds none of the training curves ({', '.join(CURVES)}); has the "
                          f"run logged anything yet?")
-    options = cfg.get("options") or {}
-    shown = "".join(f", {k}={v}" for k, v in sorted(options.items()))
+    shown = f", {options_text(cfg['options'])}" if cfg.get("options") else ""
     return f"{cfg['algo']} {cfg['task']} seed {cfg['seed']}{shown}", series
 
 
@@ -169,11 +170,12 @@ def plot_curves(runs: list[Path], out: Path) -> list[Path]:
     from shoulder_bench.tasks import TASKS
 
     checked(out)
-    curves = [_curves(Path(run)) for run in runs]  # every run checked before drawing
+    configs = [run_config(run) for run in runs]
+    curves = [_curves(Path(run), cfg) for run, cfg in zip(runs, configs)]  # every run checked before drawing
     labels = [label for label, _ in curves]
     curves = [(f"{label} ({run})" if labels.count(label) > 1 else label, series)
               for run, (label, series) in zip(runs, curves)]
-    paper = any(run_config(run)["task"] in TASKS for run in runs)  # the paper's accuracy is a 1-DOF task's
+    paper = any(cfg["task"] in TASKS for cfg in configs)  # the paper's accuracy is a 1-DOF task's
     return save(_curves_figure(curves, paper), out)
 
 
