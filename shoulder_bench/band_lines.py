@@ -6,7 +6,7 @@ A tendon t with a band table pulls with its FEM force F_t(L_MT, a) (`tendon_law.
 which MuJoCo's tendon transmission applies (generalised force F_t r_MJCF(q) about plane, elevation and rotation), and
 here in addition with F_t c_t(q) about the three coordinates: c_t the taut band's moment arms less the MJCF's, tabled on
 the tasks' pose grid and read trilinearly (poses beyond the grid at its edges). Together: F_t (r_MJCF + c_t), the
-band's line of action. The tendons without a table (ssc, dmi, cor) keep their MJCF paths.
+band's line of action. The tendons without a table (dmi, cor) keep their MJCF paths.
 
 Why a passive-force callback: a MuJoCo actuator acts along its transmission only (here the MJCF tendon), and no
 transmission has a pose-dependent direction of its own; `mjcb_passive` is MuJoCo's hook for generalised forces added
@@ -43,7 +43,7 @@ import numpy as np
 from shoulder_bench.muscle import law_cell
 
 # the tendons whose footprint sheet is resolved (fem.bands)
-BAND_TENDONS = ("ssp", "isp", "tmi", "tma", "pec1", "pec2", "pec3", "dpo", "dan", "ld1", "ld2", "ld3")
+BAND_TENDONS = ("ssp", "isp", "ssc", "tmi", "tma", "pec1", "pec2", "pec3", "dpo", "dan", "ld1", "ld2", "ld3")
 LINES = ("mjcf", "band")  # the 3-DOF tasks' `line_of_action` option
 AXES = ("plane_deg", "elevation_deg", "rotation_deg")
 REBUILD = "shoulder-bench fem build --bands"

@@ -70,12 +70,12 @@ def test_a_band_table_is_built_cached_and_verified(cell, monkeypatch, tmp_path, 
 
 
 def test_bad_requests_are_refused_before_any_solve(tmp_path, capsys):
-    with pytest.raises(ValueError, match="no band table for ssc"):
-        bands.build(("ssc",), coarse=True, out=tmp_path)
+    with pytest.raises(ValueError, match="no band table for dmi"):
+        bands.build(("dmi",), coarse=True, out=tmp_path)
     with pytest.raises(ValueError, match="--coarse without --out"):
         bands.build(("tmi",), coarse=True)
-    with pytest.raises(SystemExit, match="no band table for ssc"):
-        fem_main(["build", "--bands", "--tendon", "ssc", "--coarse", "--out", str(tmp_path)])
+    with pytest.raises(SystemExit, match="no band table for dmi"):
+        fem_main(["build", "--bands", "--tendon", "dmi", "--coarse", "--out", str(tmp_path)])
     with pytest.raises(SystemExit, match="go with --bands"):
         fem_main(["verify", "--held-out", "3"])
     assert band_verify.verify(tmp_path, quiet=True) == 1  # an empty folder
@@ -384,3 +384,15 @@ def test_isps_band_presses_on_the_humeral_head_and_the_others_on_their_wrap_obje
     monkeypatch.setattr(bands, "SURFACE", {})  # every band on its wrap object
     assert now["isp"] != bands.input_hash("isp", "coarse", material)
     assert now["ssp"] == bands.input_hash("ssp", "coarse", material)
+
+
+def test_the_verify_lists_ten_poses_over_the_bound_and_the_box_that_holds_them_all(capsys):
+    held = np.array([(7.5 + 15 * i, 5.0 + 10 * i, -37.5 + 15 * (i % 8)) for i in range(12)])
+    pct = np.full((12, 3), 0.5)
+    pct[:11, 1] = 3.0  # eleven over the 2 % bound, the last one within it
+    assert not band_verify.check("ssc", 1.0, held, pct)
+    out = capsys.readouterr().out
+    assert out.count("over at") == band_verify.SHOW_OVER == 10 and "11 poses over the bound" in out
+    lo, hi = held[:11].min(axis=0), held[:11].max(axis=0)
+    assert (f"all 11 over the bound within plane {lo[0]:g}-{hi[0]:g}, elevation {lo[1]:g}-{hi[1]:g}, rotation "
+            f"{lo[2]:g}-{hi[2]:g} deg") in out

@@ -28,7 +28,7 @@ def test_the_sheets_fibres_start_on_mujocos_wrapped_path(tendon, pose):
     report's 72 poses (the pose space's ends and middle) and 20 random ones."""
     from shoulder_bench.authoring.fem.footprint_report import report_poses
 
-    sheet = F.FootprintSheet(tendon, "coarse", width_m=0.01, pose=pose)
+    sheet = F.FootprintSheet(tendon, "coarse", width_m=0.01, pose=pose, mjcf_insertion=True)
     rng = np.random.default_rng(0)
     poses = np.r_[report_poses(), np.c_[rng.uniform(0, 90, 20), rng.uniform(0, 140, 20), rng.uniform(-45, 60, 20)]]
     fixed = []
@@ -48,7 +48,7 @@ def test_a_narrow_sheet_gives_back_the_mjcf_moment_arms(tendon, pose):
     contact forces, and for dan and ld2 the pull of their path beyond it over a second proximal bone, through the
     bodies' Jacobians and the coupling slopes) must equal -ten_J S to within 1 mm, in poses with and without contact
     on the wrap sphere."""
-    sheet = F.FootprintSheet(tendon, "coarse", width_m=0.001, pose=pose)
+    sheet = F.FootprintSheet(tendon, "coarse", width_m=0.001, pose=pose, mjcf_insertion=True)
     contacts = []
     for p in POSES[1:3]:
         s = sheet.solve(p)
@@ -168,19 +168,38 @@ def test_the_flat_drape_keeps_a_band_on_the_head_together(pose):
 def test_the_head_is_a_sphere_about_the_joint_centre_and_the_cuff_insertions_inside_it_are_refused(pose):
     centre, radius = np.asarray(F.HUMERAL_HEAD["centre_m"]), F.HUMERAL_HEAD["radius_m"]
     assert np.linalg.norm(centre) < 3e-3 and 0.019 <= radius <= 0.028  # Iannotti 1992: 24 mm (19-28)
-    for tendon in ("ssc", "tmi"):
+    for tendon, kw in (("ssc", {"mjcf_insertion": True}), ("tmi", {})):
         with pytest.raises(ValueError, match="insertion site lies inside the humeral head sphere"):
-            F.FootprintSheet(tendon, "coarse", pose=pose, surface="head")
+            F.FootprintSheet(tendon, "coarse", pose=pose, surface="head", **kw)
     with pytest.raises(ValueError, match="unknown contact surface"):
         F.FootprintSheet("ssp", pose=pose, surface="glenoid")
+
+
+def test_the_subscapularis_inserts_on_the_lesser_tuberosity_not_on_the_articular_cap(pose):
+    """ssc's insertion line is centred on INSERTION_M (the parent's lesser tuberosity), outside the head sphere, and
+    carried by the humerus: at two poses it lies where the humerus takes that point, not at the MJCF site (2 mm inside
+    the sphere); on the head its band solves, internal rotation where the parent's path has almost none."""
+    centre, radius = np.asarray(F.HUMERAL_HEAD["centre_m"]), F.HUMERAL_HEAD["radius_m"]
+    q = np.asarray(F.INSERTION_M["ssc"])
+    assert 0.0 < np.linalg.norm(q - centre) - radius < 0.003
+    sheet = F.FootprintSheet("ssc", "coarse", pose=pose, surface="head", rest="pose")
+    site = sheet.part.insertion_site
+    for p in POSES[:2]:
+        sheet._set(p)
+        b = sheet.bodies["insertion"]
+        expected = sheet.d.xpos[b] + sheet.d.xmat[b].reshape(3, 3) @ q
+        np.testing.assert_allclose(sheet._ends()[1], expected, atol=1e-12)
+        assert np.linalg.norm(sheet._ends()[1] - sheet.d.site_xpos[site]) > 0.015
+    s = sheet.solve((0.0, 0.0, 60.0))
+    assert s["moment_arm_m"][2] > 0.015 > 0.005 > abs(sheet.mjcf_moment_arm((0.0, 0.0, 60.0))[2])
 
 
 def test_a_report_with_every_tendon_skipped_says_why_and_writes_nothing(tmp_path, capsys):
     from shoulder_bench.cli import main
 
-    assert main(["fem", "footprint", "--rest", "pose", "--surface", "head", "--tendon", "ssc",
+    assert main(["fem", "footprint", "--rest", "pose", "--surface", "head", "--tendon", "tmi",
                  "--out", str(tmp_path)]) == 2
-    assert "no sheet to solve: ssc: its insertion site lies inside the humeral head sphere" in capsys.readouterr().err
+    assert "no sheet to solve: tmi: its insertion site lies inside the humeral head sphere" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
 
 

@@ -22,8 +22,10 @@ head's centre. Sources:
 - A 3-D study of 559 cadaveric humeri pairs (Three-dimensional measurement of humeral retroversion on a large academic
   cadaveric database): retroversion 39.9 deg (males), neck angle 137.7 deg; the upper end of the usual 25-35 deg.
 Prints, for each tendon insertion site on the MJCF humerus, its distance outside the head sphere and its angle from
-the pole under each geometry (inside the cap: less than half the arc), and the proximal humerus' most lateral
-vertices' distances outside the sphere (the greater tuberosity). With --band TENDON and --at poses: that tendon's taut
+the pole under each geometry (inside the cap: less than half the arc), where the lesser tuberosity lies (the proximal
+humerus' most anterior vertex: against the pole, the cap's edge and the subscapularis' MJCF site;
+footprint.INSERTION_M), and the proximal humerus' most lateral vertices' distances outside the sphere (the greater
+tuberosity). With --band TENDON and --at poses: that tendon's taut
 band on the head sphere at each pose (`FootprintSheet(..., rest="pose").solve`: the ramp to a = 1, isp's table's rule;
 dan's and dpo's tables keep the least-energy equilibrium, `bands.LEAST_ENERGY`), its moment arms and where it touches
 the sphere (nodes within 0.1 mm of it), as angles from the pole: how much of the contact lies beyond the anatomical
@@ -155,6 +157,16 @@ def main(path: str, tendon: str | None = None, poses=()) -> None:
               + f"; inside the sphere and within the cap: {', '.join(inside) or 'none'}")
     v = x - c
     proximal = x[np.linalg.norm(v, axis=1) < 0.035]
+    lesser = proximal[np.argmax(proximal[:, 0])] - c  # the humerus frame's x is anterior
+    u = lesser / np.linalg.norm(lesser)
+    poles = [np.degrees(np.arccos(u @ pole_of(shaft, medial, posterior, i, r))) for _, i, r, _ in GEOMETRIES]
+    beyond = [np.radians(a - arc / 2) * radius * 1e3 for a, (_, _, _, arc) in zip(poles, GEOMETRIES)]
+    to_site = np.degrees(np.arccos(u @ sites["ssc"] / np.linalg.norm(sites["ssc"])))
+    print(f"the lesser tuberosity (the most anterior vertex within 35 mm of the head's centre): "
+          f"{np.round(lesser + c, 6).tolist()} m (humerus frame), {(np.linalg.norm(lesser) - radius) * 1e3:+.1f} mm "
+          f"outside the sphere; from the pole {', '.join(f'{a:.0f}' for a in poles)} deg under the geometries above, "
+          f"beyond the cap's edge by {', '.join(f'{b:.1f}' for b in beyond)} mm along the sphere; {to_site:.0f} deg "
+          f"({np.radians(to_site) * radius * 1e3:.1f} mm along the sphere) from the ssc site")
     lateral = proximal[np.argsort(-proximal[:, 2])[:6]]
     print("the 6 most lateral vertices within 35 mm of the head's centre (the greater tuberosity): outside the sphere "
           f"(mm) {', '.join(f'{(np.linalg.norm(p - c) - radius) * 1e3:+.1f}' for p in lateral)}; lateral coordinate "

@@ -118,6 +118,10 @@ def check(tendon: str, a: float, held: np.ndarray, pct: np.ndarray) -> bool:
           + ("pass" if ok else "FAIL"))
     for p, e in list(zip(held[over], pct[over]))[:SHOW_OVER]:
         print(f"      over at {tuple(float(x) for x in p)} deg: " + " ".join(f"{x:.2f}" for x in e) + " %")
+    if over.sum() > SHOW_OVER:  # where all of them lie
+        lo, hi = held[over].min(axis=0), held[over].max(axis=0)
+        print(f"      ... all {int(over.sum())} over the bound within plane {lo[0]:g}-{hi[0]:g}, elevation "
+              f"{lo[1]:g}-{hi[1]:g}, rotation {lo[2]:g}-{hi[2]:g} deg")
     for p in held[np.isnan(pct).any(axis=1)][:SHOW_OVER]:
         print(f"      unsolved at {tuple(float(x) for x in p)} deg")
     return ok

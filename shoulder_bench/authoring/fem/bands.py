@@ -16,22 +16,20 @@ that nests them, leaving each one's trilinear reading as it is). Exploited: the 
 smoothly from the MJCF path's (the MJCF arms turn fast near high elevation, 16 % of peak between grid poses for ssp; a
 table of the band's own arms would miss by as much, the correction by < 1 %; docs/fem.md). The band is solved at
 a = 1; below it its line moves (up to 1.4 mm, `benchmarks/band_activation.py`), which `band_levels` tables where needed.
+Tendons: those whose footprint sheet is resolved (FOOTPRINT_TENDONS; ssc's on the head, inserting on the lesser
+tuberosity: its 40 mm sheet on the parent's 17 mm wrap sphere has several equilibria). Which equilibrium: the band's
+activation ramped from rest at the pose (`FootprintSheet.solve`); for the tendons in LEAST_ENERGY, whose sheet has more
+than one equilibrium at some poses (`benchmarks/band_refine.py --branches`), the least-energy of that one and those
+Newton reaches at the pose from the ramp's at the pose +- PROBE_FRACTION of the tasks' step along each coordinate, the
+first LEAST_ENERGY[t] of those six starts (`least_energy`): the pose's alone. A grid pose without an equilibrium (e.g.
+tma's corner, plane 80-90, elevation 140, rotation -45) takes the mean of its solved neighbours' correction, listed in
+the table (`unsolved`, meta); at most MAX_UNSOLVED of the grid may be.
 
-Tendons: those whose footprint sheet is resolved (FOOTPRINT_TENDONS). ssc is left out: its 40 mm sheet on the parent's
-17 mm wrap sphere has several equilibria, unresolved until its contact surface is the humeral head.
-
-Which equilibrium: the band's activation ramped from rest at the pose (`FootprintSheet.solve`); for the tendons in
-LEAST_ENERGY, whose sheet has more than one equilibrium at some poses (`benchmarks/band_refine.py --branches`), the
-least-energy of that one and those Newton reaches at the pose from the ramp's at the pose +- PROBE_FRACTION of the
-tasks' step along each coordinate, the first LEAST_ENERGY[t] of those six starts (`least_energy`): the pose's alone.
-A grid pose without an equilibrium (e.g. tma's corner, plane 80-90, elevation 140, rotation -45) takes the mean of its
-solved neighbours' correction, listed in the table (`unsolved`, meta); at most MAX_UNSOLVED of the grid may be.
-
-Caching and resuming: each table carries its input hash (model file bytes, footprint width, resolution, material,
-solver settings, grid, CODE_VERSION); a build solves only missing or stale tables, writes each atomically, holds the
-folder's lock, and takes from a stale table of the same inputs on another grid (a REFINE change) the poses it holds
-(`reusable`). It saves the poses solved so far every SAVE_EVERY (`partial_path`, with the input hash) and an
-interrupted build resumes from them (`resumed`). `jobs` processes, one pool per tendon, solve its poses (and the
+Caching and resuming: each table carries its input hash (model file bytes, footprint width and moved insertion,
+resolution, material, solver settings, grid, CODE_VERSION); a build solves only missing or stale tables, writes each
+atomically, holds the folder's lock, and takes from a stale table of the same inputs on another grid (a REFINE change)
+the poses it holds (`reusable`). It saves the poses solved so far every SAVE_EVERY (`partial_path`, with the input hash)
+and an interrupted build resumes from them (`resumed`). `jobs` processes, one pool per tendon, solve its poses (and the
 verify's, `band_verify`) CHUNK at a time: each pose's equilibrium is its own, so the tables do not depend on it.
 """
 from __future__ import annotations
@@ -47,7 +45,7 @@ from tqdm import tqdm
 
 from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem import rounded, worker_init
-from shoulder_bench.authoring.fem.footprint import FLAT_DRAPE, FOOTPRINT_M, SETTINGS
+from shoulder_bench.authoring.fem.footprint import FLAT_DRAPE, FOOTPRINT_M, INSERTION_M, SETTINGS
 from shoulder_bench.authoring.fem.footprint_compare import compare
 from shoulder_bench.authoring.fem.full import locked_folder
 from shoulder_bench.authoring.fem.material import Material
@@ -63,8 +61,8 @@ MAX_UNSOLVED = 0.01
 # elevation, rotation). Where the held-out check on the tasks' grid missed by interpolation (band_refine.py: ssp, pec1
 # and pec3 within the bound at their worst pose on a grid twice as fine; tma's worst cell at a third of the step in
 # plane and rotation, where its arms bend, then half in elevation; dpo half in plane and rotation, then in elevation;
-# docs/fem.md "What each miss is", "tma", "tma: half the elevation step", "pec2 and pec3", "The deltoids")
-REFINE = {"ssp": 2, "pec1": 2, "tma": (3, 2, 3), "pec3": 2, "dpo": 2}
+# ssc half in plane and rotation, its misses then in one box; docs/fem.md "What each miss is", "tma", "The deltoids")
+REFINE = {"ssp": 2, "pec1": 2, "tma": (3, 2, 3), "pec3": 2, "dpo": 2, "ssc": (2, 1, 2)}
 # Tendons whose band is solved as the least-energy of several equilibria (`least_energy`), with how many of
 # `probe_offsets`' six starts beside the ramp's: tmi (no contact surface; the ramp from rest lands on the higher of two)
 # all six; tma, ssp (any one start found the lower equilibrium where there is one: band_branches.py), dan, ld1-3 and
@@ -75,8 +73,9 @@ PROBE_FRACTION = 0.25  # the starts' offsets from the pose, in tasks' grid steps
 # Each tendon's contact surface (`footprint.SURFACES`; "wrap", the MJCF's wrap object, if absent): the humeral head
 # sphere (`footprint.HUMERAL_HEAD`) for isp (its band on the parent's cylinder follows the MJCF path's jump and misses
 # the held-out bound: docs/fem.md "isp: the humeral head"), dpo and dmi (their MJCF wraps are MuJoCo's inside wrapping:
-# "The deltoids") and dan (its acromial site enters its MJCF wrap sphere at high elevation: "dan and ld1-3")
-SURFACE = {"isp": "head", "dmi": "head", "dpo": "head", "dan": "head"}
+# "The deltoids"), dan (its acromial site enters its MJCF wrap sphere at high elevation: "dan and ld1-3") and ssc
+# (inserting on the lesser tuberosity, footprint.INSERTION_M: "ssc on the lesser tuberosity")
+SURFACE = {"isp": "head", "dmi": "head", "dpo": "head", "dan": "head", "ssc": "head"}
 SURFACE_TEXT = {"wrap": "the MJCF's wrap object", "head": "the humeral head sphere"}  # in each table's meta
 
 
@@ -121,6 +120,7 @@ def input_hash(tendon: str, resolution: str, material: Material, grid_axes=None)
     if rule and LEAST_ENERGY[tendon] < 6:
         rule["starts"] = LEAST_ENERGY[tendon]
     rule.update({"drape": "flat"} if tendon in FLAT_DRAPE else {})
+    rule.update({"insertion_m": list(INSERTION_M[tendon])} if tendon in INSERTION_M else {})
     blob = json.dumps(rounded({"model": hashlib.sha256(full_arm.MODEL_FILE.read_bytes()).hexdigest(),
                                "tendon": tendon, "width_m": FOOTPRINT_M[tendon], "resolution": resolution,
                                "surface": surface(tendon), "rest": "pose", "material": material.as_dict(),

@@ -6,27 +6,26 @@ Which tendons: those whose free part (the MJCF path from the last humerus site t
 is straight or wraps one object, and whose footprint has a source (FOOTPRINT_M): the rotator cuff (ssp over a sphere,
 isp over a cylinder, ssc over a sphere, tmi straight), teres major (a sphere), the clavicular pectoralis major
 (straight) and the sternal one's two bundles (pec2, pec3: a sphere each; half the sternal head's footprint each, an
-assumption), the anterior deltoid (dan, a sphere), the latissimus' three bundles (ld1-3, a cylinder each; a third of
-its footprint each, an assumption), and the middle and posterior deltoids (dmi, dpo): their MJCF wraps have the side
-site inside the object (MuJoCo's inside wrapping, which no sheet follows), so their sheets drape over the humeral head
-only (surface "head").
-cor is draped as well but has no footprint source (`width_m` runs it). The anterior deltoid (dan) and the latissimus
-(ld1-3) run on beyond the free part over a second proximal bone in straight segments (dan: from the acromion to the
-clavicle; ld: from the scapula to the thorax), whose length changes with the girdle: the sheet ends at
-P, and those segments pull on their bones with the sheet's tension, as MuJoCo's tendon does ("Reduction").
+assumption), the anterior deltoid (dan, a sphere), the latissimus' three bundles (ld1-3, a cylinder each; a third of its
+footprint each, an assumption), and the middle and posterior deltoids (dmi, dpo): their MJCF wraps have the side site
+inside the object (MuJoCo's inside wrapping, which no sheet follows), so their sheets drape over the humeral head only
+(surface "head"). cor is draped as well but has no footprint source (`width_m` runs it). dan and ld1-3 run on beyond the
+free part over a second proximal bone in straight segments (dan: acromion to clavicle; ld: scapula to thorax), whose
+length changes with the girdle: the sheet ends at P, and those segments pull on their bones with the sheet's tension, as
+MuJoCo's tendon does ("Reduction").
 
-Geometry. The origin line is centred on the proximal site P, the insertion line on the last humerus site Q,
-both along n = (P - c) x (Q - c) at the reference pose (c: the wrap object's centre, or the joint centre for a
-straight tendon), each fixed in its bone's frame. Insertion line length: the tendon's insertional footprint across
-its fibres (FOOTPRINT_M, with its sources). The origin line has the same length: the free part begins where the
-tendon leaves the bone, and no source gives the belly's width there (a stated assumption). A fibre runs from a point
-of the origin line to the matching point of the insertion line. Its initial shape at a pose is MuJoCo's wrapped path
-(`wrap_geodesic`: straight, or tangent-arc-tangent over the sphere, a helix on the cylinder, on the side of the
+Geometry. The origin line is centred on the proximal site P, the insertion line on the last humerus site Q (or on
+INSERTION_M's point: ssc), both along n = (P - c) x (Q - c) at the reference pose (c: the wrap object's centre, or the
+joint centre for a straight tendon), each fixed in its bone's frame. Insertion line length: the tendon's insertional
+footprint across its fibres (FOOTPRINT_M, with its sources). The origin line has the same length: the free part begins
+where the tendon leaves the bone, and no source gives the belly's width there (a stated assumption). A fibre runs from a
+point of the origin line to the matching point of the insertion line. Its initial shape at a pose is MuJoCo's wrapped
+path (`wrap_geodesic`: straight, or tangent-arc-tangent over the sphere, a helix on the cylinder, on the side of the
 wrap's side site); then the solve decides where the sheet lies: the contact with the surface is the solver's penalty
 (`solver.MuscleProblem`), not a prescribed path. The contact surface (`surface`) is the MJCF's wrap object (the MoBL
-parent's, as the MJCF has them: MuJoCo wraps spheres and cylinders only), or the humeral head (HUMERAL_HEAD, a
-sphere fitted to the parent's humerus surface; for ssp, isp, dmi and dpo: the ssc and tmi insertion sites lie inside
-it). The greater tuberosity, over which the deltoid drapes too, is not a contact surface here (the head sphere only).
+parent's, as the MJCF has them: MuJoCo wraps spheres and cylinders only), or the humeral head (HUMERAL_HEAD, a sphere
+fitted to the parent's humerus surface; tmi's and the MJCF's ssc insertion sites lie inside it). The greater tuberosity,
+over which the deltoid drapes too, is not a contact surface here (the head sphere only).
 
 Reference (stress-free, fibres at optimal length): the sheet at REFERENCE_POSE_DEG, carried to other poses by a walk
 (rest="reference"). The sheet is all fibre (no tendon in series): these solves are about the line of action, which
@@ -76,6 +75,13 @@ FOOTPRINT_M = {"ssp": 0.023, "isp": 0.029, "ssc": 0.040, "tmi": 0.029, "tma": 0.
                "pec2": 0.0421 / 2, "pec3": 0.0421 / 2, "dmi": 0.0047, "dpo": 0.0078, "dan": 0.0073,
                "ld1": 0.0365 / 3, "ld2": 0.0365 / 3, "ld3": 0.0365 / 3}
 TENDONS = tuple(FOOTPRINT_M)
+# Insertion lines centred elsewhere than on the MJCF's last humerus site (humerus frame, m). ssc: the parent's SUBSC
+# site lies 2.0 mm inside the head sphere on its articular cap, 22 mm from the parent's own lesser tuberosity, where the
+# subscapularis inserts (D'Addesi et al. 2006, Arthroscopy, PMID 16952721; Ide et al. 2008, Arthroscopy, 40 shoulders:
+# its footprint's medial edge 3.2-6.5 mm from the cartilage, 16.0 mm wide): its line is centred on the parent's humerus
+# surface's most anterior vertex within 35 mm of the head's centre (models/reference/scripts/humeral_cap.py; docs/fem.md
+# "ssc on the lesser tuberosity"). The MJCF path keeps the parent's site, the force law its length.
+INSERTION_M = {"ssc": (0.025735, 0.003363, 0.003644)}
 # The humeral head of the MoBL-ARMS parent's humerus surface (humerus.vtp of osim-rl 3.0.11's MoBL_ARMS_J.osim) as a
 # sphere in the humerus frame: `python models/reference/scripts/humeral_head.py <humerus.vtp>` (62 vertices, RMS
 # residual 0.89 mm). Cf. the 24 mm mean radius of curvature of Iannotti et al. 1992 (J Bone Joint Surg Am 74:491).
@@ -103,7 +109,7 @@ class FootprintSheet:
 
     def __init__(self, tendon: str, resolution: str | tuple[int, int] = "coarse", width_m: float | None = None,
                  pose: full_arm.Pose | None = None, material: Material | None = None, surface: str = "wrap",
-                 rest: str = "reference", flat: bool | None = None):
+                 rest: str = "reference", flat: bool | None = None, mjcf_insertion: bool = False):
         if tendon not in FOOTPRINT_M and width_m is None:
             raise ValueError(f"no footprint for {tendon!r}; tendons with one: {', '.join(TENDONS)}")
         if surface not in SURFACES:
@@ -120,6 +126,8 @@ class FootprintSheet:
         self.surface = surface
         self.flat = tendon in FLAT_DRAPE if flat is None else bool(flat)  # the drape: flat, or fibre by fibre
         self.width = float(FOOTPRINT_M[tendon] if width_m is None else width_m)
+        moved = tendon in INSERTION_M and not mjcf_insertion  # mjcf_insertion: the MJCF site's line (checks against it)
+        self.insertion = np.asarray(INSERTION_M[tendon]) if moved else None  # its centre in the humerus frame, m
         self.ns, self.nt = RESOLUTION[resolution] if isinstance(resolution, str) else resolution
         self.bodies = {"origin": int(self.m.site_bodyid[self.part.origin_site]),
                        "insertion": int(self.m.site_bodyid[self.part.insertion_site]),
@@ -188,7 +196,11 @@ class FootprintSheet:
 
     def _ends(self):
         p = self.d.site_xpos[self.part.origin_site].copy()
-        q = self.d.site_xpos[self.part.insertion_site].copy()
+        if self.insertion is None:
+            q = self.d.site_xpos[self.part.insertion_site].copy()
+        else:
+            pos, rot = self._frame("insertion")
+            q = pos + rot @ self.insertion
         surface = self._contact_surface()
         c = surface[0] if surface is not None else self.d.xanchor[self.m.joint("shoulder_elv").id].copy()
         return p, q, c
