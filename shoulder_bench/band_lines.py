@@ -15,6 +15,15 @@ RK4 stage. `shoulder_bench.native.passive` is the compiled (GIL-free) callback, 
 callback would make every model compile fail: `model.install_callbacks`); it reads F from the same law arithmetic as
 the actuator callbacks and c from `band_point` below, as `BandLines.correction` does.
 
+The force's length is the band's own (`band_length`): a cable on frictionless surfaces has arms r = -dL/dq, and the
+band's are nearly the gradient of a length (`benchmarks/band_potential.py`: their least-squares potential over the
+grid misses them by 0.001-0.075 mm RMS along the grid's edges), so F_t is read at L_MT(q) + D_t(q), D_t = L_band -
+L_MJCF that potential of -c_t at a = 1, zero at LENGTH_ANCHOR_DEG (the footprint sheets' reference pose, where the
+band's length is taken to be the MJCF path's), and at the lengthening rate -(r_MJCF + c_t) . qdot along the line the
+force acts on. Not exactly a gradient: the band is made stress-free anew at each pose, its load shared among fibres
+differently from pose to pose, so a constant activation does some work round a closed path of poses, keyed on either
+length (docs/fem.md "The band's own length").
+
 Below a = 1 the band's line moves (docs/fem.md "The activation"); for the tendons with a level table
 (`<tendon>_band_levels.npz`, `fem.band_levels`) the correction is c_t(q) + (r_band(q, a) - r_band(q, 1)), the second
 term tabled on the tasks' grid at a few activation levels and read trilinearly in the pose and linearly in a (below
@@ -47,6 +56,9 @@ BAND_TENDONS = ("ssp", "isp", "ssc", "tmi", "tma", "pec1", "pec2", "pec3", "dpo"
 LINES = ("mjcf", "band")  # the 3-DOF tasks' `line_of_action` option
 AXES = ("plane_deg", "elevation_deg", "rotation_deg")
 REBUILD = "shoulder-bench fem build --bands"
+# where a band's length is taken to be its MJCF path's (`band_length`): the footprint sheets' reference pose
+# (`authoring.fem.footprint.REFERENCE_POSE_DEG`), deg
+LENGTH_ANCHOR_DEG = (30.0, 45.0, 0.0)
 
 
 def table_path(tendon: str, folder: Path | None = None) -> Path:
@@ -105,11 +117,45 @@ def read_table(path: Path, arrays_named=("moment_arm_m", "mjcf_moment_arm_m")) -
     return arrays, meta
 
 
+def integrate_arms(arms: np.ndarray, steps_rad) -> tuple[np.ndarray, np.ndarray]:
+    """(L (P, E, R), zero at the grid's first pose; edge residuals (edges,)): the least-squares length whose
+    differences along the grid's edges are -h_k (r_k,i + r_k,j) / 2 (the trapezoid rule), for moment arms `arms`
+    (P, E, R, 3) on a uniform grid with steps `steps_rad` (3,) about plane, elevation and rotation; r = -dL/dq."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.linalg import spsolve
+
+    shape = arms.shape[:3]
+    index = np.arange(int(np.prod(shape))).reshape(shape)
+    cols, rhs = [], []
+    for k in range(3):
+        lo, hi = (np.take(index, range(o, shape[k] - 1 + o), axis=k).ravel() for o in (0, 1))
+        r_lo, r_hi = (np.take(arms[..., k], range(o, shape[k] - 1 + o), axis=k).ravel() for o in (0, 1))
+        cols.append((hi, lo))
+        rhs.append(-steps_rad[k] * (r_lo + r_hi) / 2.0)
+    hi, lo = (np.concatenate([c[j] for c in cols]) for j in (0, 1))
+    n = len(hi)
+    a = coo_matrix((np.r_[np.ones(n), -np.ones(n)], (np.r_[np.arange(n), np.arange(n)], np.r_[hi, lo])),
+                   shape=(n, index.size)).tocsc()
+    b = np.concatenate(rhs)
+    free = a[:, 1:]  # the first pose's length fixed at 0
+    x = np.r_[0.0, spsolve((free.T @ free).tocsc(), free.T @ b)]
+    return x.reshape(shape), a @ x - b
+
+
+def band_length(correction: np.ndarray, axes_deg) -> np.ndarray:
+    """D = L_band - L_MJCF (P, E, R) m on a band table's grid `axes_deg`, from its correction c = r_band - r_MJCF
+    (P, E, R, 3) m at a = 1: the least-squares potential of -c (`integrate_arms`), zero at LENGTH_ANCHOR_DEG (read
+    trilinearly)."""
+    d, _ = integrate_arms(correction, [np.radians(a[1] - a[0]) for a in axes_deg])
+    anchor = _resample(d[..., None], axes_deg, [np.array([v]) for v in LENGTH_ANCHOR_DEG])
+    return d - float(anchor.ravel()[0])
+
+
 class BandLines:
     """The band corrections of `tendons` on one grid and at activation `levels` (ascending, equal steps, ending at 1;
     (1.0,) when none depends on it): `correction(poses_deg, activation)` (P, n, 3) m. `load` reads the tables."""
 
-    def __init__(self, tendons, axes_deg, correction: np.ndarray, levels=(1.0,)):
+    def __init__(self, tendons, axes_deg, correction: np.ndarray, levels=(1.0,), lengths: np.ndarray | None = None):
         self.tendons = tuple(tendons)
         self.axes_deg = [np.asarray(a, dtype=float) for a in axes_deg]
         self.levels = np.asarray(levels, dtype=float)
@@ -124,6 +170,11 @@ class BandLines:
                                     [1.0 / np.radians(a[1] - a[0]) for a in self.axes_deg],
                                     [self.levels[0], 1.0 / da]])
         self.shape = np.array(shape[1:] + shape[:1], dtype=np.int64)  # planes, elevations, rotations, levels
+        # (n, P, E, R) m: each tendon's band length less its MJCF path's (`band_length`); zeros: the MJCF length
+        self.lengths = np.ascontiguousarray(np.zeros(self.table.shape[:1] + self.table.shape[2:5])
+                                            if lengths is None else lengths, dtype=np.float64)
+        if self.lengths.shape != self.table.shape[:1] + self.table.shape[2:5]:
+            raise ValueError(f"band lengths of shape {self.lengths.shape}, expected {self.table.shape[:1] + shape[1:]}")
 
     @classmethod
     def load(cls, tendons=BAND_TENDONS, folder: Path | None = None) -> BandLines:
@@ -152,16 +203,19 @@ class BandLines:
             if not all(_nests(ax, a[k]) for k, ax in zip(AXES, axes)):
                 raise ValueError(f"{table_path(t, folder)}: its pose grid spans other ranges than "
                                  f"{', '.join(tendons)}'s; rebuild the tables with `{REBUILD}`")
-        out = []
+        out, lengths = [], []
         for t, (a, _) in zip(tendons, tables):
-            c = _resample(a["moment_arm_m"] - a["mjcf_moment_arm_m"], [a[k] for k in AXES], axes)
+            own = [a[k] for k in AXES]
+            lengths.append(_resample(band_length(a["moment_arm_m"] - a["mjcf_moment_arm_m"], own)[..., None], own,
+                                     axes)[..., 0])
+            c = _resample(a["moment_arm_m"] - a["mjcf_moment_arm_m"], own, axes)
             at = [np.zeros_like(c)] * len(descending)  # each level's arms less the a = 1 arms
             if t in levels:
                 lv = levels[t]
                 at = [_resample(arms - lv["moment_arm_m"][0], [lv[k] for k in AXES], axes)
                       for arms in lv["moment_arm_m"]]
             out.append(np.stack([c + d for d in at[::-1]]))  # ascending in activation
-        return cls(tendons, axes, np.stack(out), descending[::-1])
+        return cls(tendons, axes, np.stack(out), descending[::-1], np.stack(lengths))
 
     def correction(self, poses_deg, activation=1.0) -> np.ndarray:
         """(P, n, 3) m: each tendon's band moment arms less its MJCF ones at `poses_deg` (P, 3) and `activation` (a
@@ -173,6 +227,19 @@ class BandLines:
         out = np.empty((len(q), len(self.tendons), 3))
         _corrections(self.table, self.grid, self.shape, q, a, out)
         return out
+
+
+    def lengthening(self, poses_deg, rates_rad_s=None, activation=1.0) -> tuple[np.ndarray, np.ndarray]:
+        """((P, n) m, (P, n) m/s): each tendon's band length less its MJCF path's at `poses_deg` (P, 3), and its
+        lengthening rate less the MJCF path's, -c . qdot at the coordinates' rates `rates_rad_s` (P, 3) (None: at
+        rest) along the line at `activation` (as `correction` takes it), as the callbacks read them."""
+        q = np.radians(np.atleast_2d(np.asarray(poses_deg, dtype=float)))
+        v = np.zeros_like(q) if rates_rad_s is None else np.atleast_2d(np.asarray(rates_rad_s, dtype=float))
+        a = np.ascontiguousarray(np.broadcast_to(np.clip(activation, 0.0, 1.0), (len(q), len(self.tendons))),
+                                 dtype=np.float64)
+        dl, dv = np.empty((len(q), len(self.tendons))), np.empty((len(q), len(self.tendons)))
+        _lengthenings(self.lengths, self.table, self.grid, self.shape, q, np.ascontiguousarray(v), a, dl, dv)
+        return dl, dv
 
 
 def _nests(fine: np.ndarray, coarse: np.ndarray) -> bool:
@@ -234,3 +301,33 @@ def _corrections(table, grid, shape, q, a, out):
             j, wj = band_level(a[p, b], grid, shape)
             for k in range(3):
                 out[p, b, k] = band_point(table, b, k, j, wj, i0, w0, i1, w1, i2, w2)
+
+
+@numba.njit(inline="always")
+def band_lengthening(lengths, table, b, a, q0, q1, q2, v0, v1, v2, grid, shape):
+    """Tendon b's band length less its MJCF path's at pose (q0, q1, q2) rad (`lengths` read trilinearly) and its
+    lengthening rate less the MJCF path's at the coordinates' rates (v0, v1, v2) rad/s along the line at activation
+    a: -(c_0 v0 + c_1 v1 + c_2 v2). The one implementation: `BandLines.lengthening` and the compiled actuator
+    callbacks both inline it."""
+    i0, w0, i1, w1, i2, w2 = band_cells(q0, q1, q2, grid, shape)
+    dl = 0.0
+    for d0 in range(2):
+        u0 = w0 if d0 else 1.0 - w0
+        for d1 in range(2):
+            u1 = w1 if d1 else 1.0 - w1
+            for d2 in range(2):
+                u2 = w2 if d2 else 1.0 - w2
+                dl += u0 * u1 * u2 * lengths[b, i0 + d0, i1 + d1, i2 + d2]
+    j, wj = band_level(a, grid, shape)
+    dv = -(v0 * band_point(table, b, 0, j, wj, i0, w0, i1, w1, i2, w2)
+           + v1 * band_point(table, b, 1, j, wj, i0, w0, i1, w1, i2, w2)
+           + v2 * band_point(table, b, 2, j, wj, i0, w0, i1, w1, i2, w2))
+    return dl, dv
+
+
+@numba.njit(cache=True, nogil=True)
+def _lengthenings(lengths, table, grid, shape, q, v, a, dl, dv):
+    for p in range(q.shape[0]):
+        for b in range(table.shape[0]):
+            dl[p, b], dv[p, b] = band_lengthening(lengths, table, b, a[p, b], q[p, 0], q[p, 1], q[p, 2], v[p, 0],
+                                                  v[p, 1], v[p, 2], grid, shape)

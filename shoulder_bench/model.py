@@ -62,7 +62,7 @@ def law_joint(m: mujoco.MjModel, joint: str | None = None) -> str:
 class _ModelEntry:
     """Per model: its law, the law column of each actuator (-1: not simulated), actuator order, joint addresses."""
 
-    __slots__ = ("ref", "law", "cols", "order", "first", "qadr", "vadr", "acts")
+    __slots__ = ("ref", "law", "cols", "order", "first", "qadr", "vadr", "acts", "band")
 
     def __init__(self, m: mujoco.MjModel, law, joint: str | None):
         self.ref = weakref.ref(m)
@@ -77,6 +77,13 @@ class _ModelEntry:
         else:
             jnt = m.joint(joint).id
             self.qadr, self.vadr = int(m.jnt_qposadr[jnt]), int(m.jnt_dofadr[jnt])
+        self.band = None  # a law with band lines: (its band tendons' columns, the coordinates' qpos, dof addresses)
+        if getattr(law, "lines", None) is not None:
+            from shoulder_bench.full_arm import COORDINATES
+
+            self.band = (np.array([law.actuators.index(t) for t in law.lines.tendons]),
+                         np.array([int(m.joint(c).qposadr[0]) for c in COORDINATES]),
+                         np.array([int(m.joint(c).dofadr[0]) for c in COORDINATES]))
 
 
 class _DataEntry:
@@ -134,7 +141,14 @@ def _gain(m, d, i):
         if e.qadr < 0:  # a length-keyed law: each tendon's length and lengthening rate (MuJoCo's actuator ones are
             gear = np.asarray(m.actuator_gear)[e.acts, 0]  # gear x the tendon's; gear: 1, or a strength draw)
             gear = np.where(gear != 0.0, gear, 1.0)
-            gain, bias = e.law.gain_bias_one(s.length[e.acts] / gear, s.speed[e.acts] / gear, s.ctrl[e.order])
+            length, speed = s.length[e.acts] / gear, s.speed[e.acts] / gear
+            if e.band is not None:  # the band tendons: their band's length and lengthening rate (band_lines)
+                cols, qadr, dadr = e.band
+                a = s.ctrl[e.order][e.law.muscle_of[cols]]
+                dl, dv = e.law.lines.lengthening(np.degrees(s.qpos[qadr]), s.qvel[dadr], a)
+                length[cols] += dl[0]
+                speed[cols] += dv[0]
+            gain, bias = e.law.gain_bias_one(length, speed, s.ctrl[e.order])
         else:
             gain, bias = e.law.gain_bias_one(s.qpos[e.qadr], s.qvel[e.vadr], s.ctrl[e.order])
         s.gain = [-x for x in gain.tolist()]  # negative: muscles pull, shortening their tendon

@@ -28,7 +28,10 @@ What a call reads:
 coordinates, F from `_evaluate` (the actuator's force) and c from `band_lines.band_point` (at the actuator's ctrl,
 where the tendon has a level table). It also reads mjModel.nu
 and mjData.qfrc_passive, and the law's row points (word BAND) to a band block: the band tendons' actuators, the
-grid, the table, the coordinates' addresses and the nu of the model it was attached to (another nu: nothing added).
+grid, the table, the band lengths, the coordinates' addresses and the nu of the model it was attached to (another nu:
+nothing added). For such a law the actuator callbacks read a band tendon's force at its band's length and lengthening
+rate (`band_lines.band_lengthening`: the actuator length plus the band's length less the MJCF path's, read from the
+coordinates' qpos, and the rate less the MJCF path's from their qvel).
 
 The registry: `_ROOT` (fixed for the process; the callbacks find it through the symbol `shoulder_bench_native_root`,
 which is resolved when the cached machine code is loaded, so the cache holds no address) holds the address of the
@@ -51,7 +54,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-from shoulder_bench.band_lines import band_cells, band_level, band_point
+from shoulder_bench.band_lines import band_cells, band_lengthening, band_level, band_point
 from shoulder_bench.muscle import law_cell, law_point
 
 SYMBOL = "shoulder_bench_native_root"
@@ -60,7 +63,8 @@ ROW = 17  # int64 words per registry row
 VALID, FLAT, ARM, LEVELS, NIVS, CTRL_OF, NCOL, NK, NLEV, QADR, VADR, A0, INV_DA, MODE, X0, INV_DX, BAND = range(17)
 JOINT_MODE, LENGTH_MODE = 0, 1  # row[MODE]: the law reads one joint's angle (ForceLaw) or each tendon's length
 # row[BAND]: 0, or the address of a band block (int64 words): the law's band corrections (`band_lines`)
-NB, ACTS, BGRID, BSHAPE, BTABLE, BQADR, BDADR, BNU = range(8)
+NB, ACTS, BGRID, BSHAPE, BTABLE, BQADR, BDADR, BNU, BLEN = range(9)
+BLOCK = 9  # int64 words per band block
 # _ROOT layout
 TABLE, M_USER, M_NUSER, D_QPOS, D_QVEL, D_CTRL, D_ALEN, D_AVEL, M_NU, D_QFRC_PASSIVE, M_GEAR = range(11)
 ROOT_WORDS = 11
@@ -146,8 +150,11 @@ def _evaluate(m, d, i):
         # MuJoCo's actuator length is gear x the tendon's; gear is 1 in the model, a strength draw under randomize
         gear = numba.carray(_f64p(_word(mp + root[M_GEAR])), 6 * (i + 1))[6 * i]
         scale = 1.0 / gear if gear != 0.0 else 1.0
-        i_cell, w = law_cell(length[i] * scale, x0[c], inv_dx[c], nk - 1.000001)
-        velocity = speed[i] * scale
+        tendon, velocity = length[i] * scale, speed[i] * scale
+        if row[BAND] != 0:  # a band tendon: its band's length and lengthening rate (`band_lines`)
+            dl, dv = _band_state(m, d, row[BAND], i, ctrl[ctrl_of[c]])
+            tendon, velocity = tendon + dl, velocity + dv
+        i_cell, w = law_cell(tendon, x0[c], inv_dx[c], nk - 1.000001)
     else:
         qpos = numba.carray(_f64p(_word(dp + root[D_QPOS])), row[QADR] + 1)
         qvel = numba.carray(_f64p(_word(dp + root[D_QVEL])), row[VADR] + 1)
@@ -155,6 +162,33 @@ def _evaluate(m, d, i):
         velocity = qvel[row[VADR]]
     _, per_unit, passive, fv = law_point(flat, arm, levels, n, c, i_cell, w, ctrl[ctrl_of[c]], velocity, nivs[c])
     return -(per_unit * fv), -passive
+
+
+@numba.njit(inline="always")
+def _band_state(m, d, address, i, a):
+    """(band length less the MJCF path's, its lengthening rate less the MJCF path's) of actuator i of model m in data
+    d when it is one of the band block's at `address` (`band_lines.band_lengthening`, along the line at activation a
+    clipped to [0, 1]); (0, 0) otherwise, or for another model than the block's."""
+    root = numba.carray(_i64p(_root()), ROOT_WORDS)
+    mp, dp = _address(m), _address(d)
+    block = numba.carray(_i64p(address), BLOCK)
+    if block[BNU] != _word(mp + root[M_NU]):
+        return 0.0, 0.0
+    nb = block[NB]
+    acts = numba.carray(_i64p(block[ACTS]), nb)
+    for b in range(nb):
+        if acts[b] == i:
+            grid = numba.carray(_f64p(block[BGRID]), 8)
+            shape = numba.carray(_i64p(block[BSHAPE]), 4)
+            table = numba.carray(_f64p(block[BTABLE]), (nb, shape[3], shape[0], shape[1], shape[2], 3))
+            lengths = numba.carray(_f64p(block[BLEN]), (nb, shape[0], shape[1], shape[2]))
+            qadr = numba.carray(_i64p(block[BQADR]), 3)
+            dadr = numba.carray(_i64p(block[BDADR]), 3)
+            qpos = numba.carray(_f64p(_word(dp + root[D_QPOS])), max(qadr[0], qadr[1], qadr[2]) + 1)
+            qvel = numba.carray(_f64p(_word(dp + root[D_QVEL])), max(dadr[0], dadr[1], dadr[2]) + 1)
+            return band_lengthening(lengths, table, b, min(max(a, 0.0), 1.0), qpos[qadr[0]], qpos[qadr[1]],
+                                    qpos[qadr[2]], qvel[dadr[0]], qvel[dadr[1]], qvel[dadr[2]], grid, shape)
+    return 0.0, 0.0
 
 
 SIGNATURE = types.float64(types.voidptr, types.voidptr, types.int32)
@@ -188,7 +222,7 @@ def passive(m, d):
     row = numba.carray(_i64p(table + 8 * ROW * int(lid)), ROW)
     if row[VALID] != 1 or row[BAND] == 0:
         return
-    block = numba.carray(_i64p(row[BAND]), 8)
+    block = numba.carray(_i64p(row[BAND]), BLOCK)
     if block[BNU] != nu:  # not the model the law was attached to (a foreign model naming the id in its user data)
         return
     nb = block[NB]
@@ -248,13 +282,13 @@ def _band_block(lines, bands) -> tuple[np.ndarray, tuple]:
     """The band block of a row (`passive` reads it) and the arrays it points into."""
     acts, qadr, dadr = (np.ascontiguousarray(x, dtype=np.int64) for x in bands[:3])
     arrays = (acts, np.ascontiguousarray(lines.grid, dtype=np.float64), np.ascontiguousarray(lines.shape),
-              lines.table, qadr, dadr)
+              lines.table, qadr, dadr, lines.lengths)
     if acts.shape != (len(lines.tendons),) or qadr.shape != (3,) or dadr.shape != (3,) or lines.grid.shape != (8,) \
             or lines.shape.shape != (4,):
         raise ValueError("inconsistent band arrays for the native callback")
-    block = np.zeros(8, dtype=np.int64)
+    block = np.zeros(BLOCK, dtype=np.int64)
     block[NB], block[BNU] = len(acts), bands[3]
-    block[ACTS], block[BGRID], block[BSHAPE], block[BTABLE], block[BQADR], block[BDADR] = (
+    block[ACTS], block[BGRID], block[BSHAPE], block[BTABLE], block[BQADR], block[BDADR], block[BLEN] = (
         x.ctypes.data for x in arrays)
     return block, arrays
 

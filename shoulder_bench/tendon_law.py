@@ -159,15 +159,16 @@ class TendonLaw:
 
     def geometry(self, pose, poses_deg, activation=None) -> tuple[np.ndarray, np.ndarray]:
         """(lengths (P, n) m, moment arms (P, n, 3) m about plane, elevation, rotation) of the law's tendons at
-        `poses_deg` (P, 3) on `pose` (a `full_arm.Pose`): the MJCF paths', plus the band corrections where the law
-        has them (`lines`), for the tendons whose band has a level table at `activation` per muscle ((muscles,) or
-        (P, muscles); None: a = 1): the arms the muscles act with in MuJoCo at those activations."""
+        `poses_deg` (P, 3) on `pose` (a `full_arm.Pose`): the MJCF paths', and where the law has band lines (`lines`)
+        their band's lengths and arms, for the tendons whose band has a level table at `activation` per muscle
+        ((muscles,) or (P, muscles); None: a = 1): the lengths and arms the muscles act with in MuJoCo."""
         L, r = pose.tendon_geometry(poses_deg, self.actuators)
         if self.lines is not None:
             cols = [self.actuators.index(t) for t in self.lines.tendons]
             a = 1.0 if activation is None else \
                 np.asarray(activation, dtype=float).reshape(-1, len(self.muscles))[:, self.muscle_of[cols]]
             r[:, cols] += self.lines.correction(poses_deg, a)
+            L[:, cols] += self.lines.lengthening(poses_deg)[0]
         return L, r
 
     def kernel_arguments(self) -> tuple:

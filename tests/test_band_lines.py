@@ -67,6 +67,60 @@ def test_mujoco_applies_the_band_line_of_action_with_either_callback():
     np.testing.assert_allclose(band, f[cols] @ law.lines.correction(POSE, 0.4)[0], rtol=1e-9)
 
 
+def test_the_band_force_is_read_at_the_band_length_and_lengthening_rate_with_either_callback():
+    law = TendonLaw.load("fem", groups=full_arm.ACTUATORS, line_of_action="band")
+    m = full_arm.compile_full()
+    attach_law(m, law)
+    pose, out = full_arm.Pose(m), {}
+    rates = np.array([0.4, -0.7, 1.1])  # rad/s about plane, elevation, rotation
+    for native in (True, False):
+        install_callbacks(native=native)
+        try:
+            d = mujoco.MjData(m)
+            d.qpos[:] = pose.qpos(POSE)[0]
+            d.qvel[pose.dadr] = rates
+            d.ctrl[:] = 0.6
+            mujoco.mj_forward(m, d)
+            out[native] = d
+        finally:
+            install_callbacks()
+    d = out[True]
+    np.testing.assert_allclose(out[False].actuator_force, d.actuator_force, rtol=1e-12, atol=1e-9)
+    cols = [law.actuators.index(t) for t in law.lines.tendons]
+    dl, dv = law.lines.lengthening(POSE, rates, 0.6)
+    np.testing.assert_allclose(dv[0], -(law.lines.correction(POSE, 0.6)[0] @ rates), rtol=1e-12)
+    ids = [m.actuator(t).id for t in law.actuators]
+    length, speed = d.actuator_length[ids].copy(), d.actuator_velocity[ids].copy()
+    length[cols] += dl[0]
+    speed[cols] += dv[0]
+    act = np.full((1, len(law.muscles)), 0.6)
+    np.testing.assert_allclose(-d.actuator_force[ids], law.force(length[None], speed[None], act)[0], rtol=1e-9)
+    # the length counts: at the MJCF path's length ssc's force differs by newtons here
+    mjcf = law.force(d.actuator_length[ids][None], speed[None], act)[0]
+    k = law.actuators.index("ssc")
+    assert abs(mjcf[k] + d.actuator_force[ids[k]]) > 5.0
+    assert abs(dl[0, law.lines.tendons.index("ssc")]) > 5e-4  # m
+
+
+def test_the_band_length_is_the_least_squares_potential_of_the_correction():
+    from shoulder_bench.band_lines import LENGTH_ANCHOR_DEG, integrate_arms
+
+    axes = [np.linspace(0.0, 90.0, 7), np.linspace(0.0, 140.0, 15), np.linspace(-45.0, 60.0, 8)]
+    q = np.radians(np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1))
+    steps = [np.radians(a[1] - a[0]) for a in axes]
+    length = 0.01 * np.sin(q[..., 0]) * np.cos(q[..., 1]) + 0.004 * q[..., 2] ** 2  # m
+    arms = -np.stack([0.01 * np.cos(q[..., 0]) * np.cos(q[..., 1]), -0.01 * np.sin(q[..., 0]) * np.sin(q[..., 1]),
+                      0.008 * q[..., 2]], axis=-1)
+    got, residual = integrate_arms(arms, steps)
+    np.testing.assert_allclose(got, length - length[0, 0, 0], atol=2e-4)  # the trapezoid rule's error
+    assert np.abs(residual).max() < 1e-4
+    swirl = np.stack([-q[..., 2], np.zeros_like(q[..., 0]), q[..., 0]], axis=-1) * 0.01  # no potential
+    assert np.abs(integrate_arms(swirl, steps)[1]).max() > 1e-3
+    lines = BandLines.load(("ssc",))
+    assert abs(lines.lengthening([LENGTH_ANCHOR_DEG])[0][0, 0]) < 1e-12  # zero at the anchor
+    assert np.ptp(lines.lengths) > 0.01  # ssc's band length departs from its MJCF path's by centimetres
+
+
 def test_the_applied_check_passes_with_the_bands_and_fails_without():
     from shoulder_bench.authoring.fem.verify_full import applied_checks, applied_vs_fem
 

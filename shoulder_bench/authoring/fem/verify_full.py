@@ -98,7 +98,7 @@ def applied_vs_fem(folder: Path | None = None, line_of_action: str = "mjcf", mus
     """Section 2: each muscle alone (`muscles`, default all), MuJoCo's applied generalised force against the FEM's at
     every grid pose and level. line_of_action "band": the band tendons (`band_lines.BAND_TENDONS`), each acting along
     its band (`fem verify --bands`; the band tables from `folder`, the force tables from models/muscles_full, as
-    the held-out check takes them), against F(L(q), a) times the band's own moment arms at its table's grid poses
+    the held-out check takes them), against F(L_band(q), a) times the band's own moment arms at its table's grid poses
     (below a = 1 plus its level table's move from them, where it has one)."""
     from shoulder_bench.band_lines import AXES, BAND_TENDONS, BandLines, read_table, table_path
     from shoulder_bench.tendon_law import TendonLaw
@@ -131,7 +131,7 @@ def applied_checks(law, muscle: str, poses: np.ndarray, arms: np.ndarray | None 
     attach_law(m, law)
     install_callbacks()
     pose, d = full_arm.Pose(m), mujoco.MjData(m)
-    L, r = pose.tendon_geometry(poses, law.actuators)
+    L, r = law.geometry(pose, poses)  # with band lines: the bands' lengths, at which the force is read
     r = r if arms is None else arms
     qpos = pose.qpos(poses)
     levels = law.levels

@@ -1,0 +1,117 @@
+"""Is a band table's line of action the gradient of a length, and how far is that length from the MJCF path's?
+(docs/fem.md "The band's own length").
+
+A cable on frictionless surfaces pulls with the generalised force -T dL/dq: its moment arms r = -dL/dq are a
+gradient field over the pose space, and the same length L keys its force. MuJoCo's tendons are such cables (r_MJCF =
+-ten_J S is the exact derivative of ten_length). With `line_of_action="band"` a tendon pulls with F(L_MJCF(q), a) along
+the band's arms r_band(q) from the table: the force keyed on the MJCF path's length, the line from the FEM. This
+script integrates each shipped band table's arms over its pose grid (least squares over the grid's edges: for the
+edge from pose i to pose j along coordinate k, L_j - L_i = -h_k (r_k,i + r_k,j) / 2, h_k the step in rad:
+`band_lines.integrate_arms`, as the model does) and prints:
+
+* the control: the MJCF arms of the same table integrated the same way against MuJoCo's own ten_length at the grid
+  poses (largest difference, mm): the integration's error;
+* the edge residual (RMS and largest, mm) of the band's arms against the MJCF's: what of the band's field is not a
+  gradient (the MJCF's residual is the trapezoid rule's error alone);
+* D(q) = L_band(q) - L_MJCF(q), both integrated alike, over the grid: its range (largest - smallest, mm; no constant
+  fixes it), and that range in optimal fibre lengths l_opt (with the rigid tendon of the force tables, a change of
+  the musculotendon length is a change of the fibre length);
+* the force the law gives at the band's length against at the MJCF's, the two lengths equal at the footprint sheets'
+  reference pose (30, 45, 0, `band_lines.LENGTH_ANCHOR_DEG`): largest |difference| over the grid at a = 1 and a = 0
+  (passive), in % of F0;
+* with --loop: the work (J) a tendon alone at a = 1 does round a closed path of poses (a rectangle in plane and
+  rotation at one elevation, 4 x 200 steps): along its MJCF path (a gradient: zero but for the quadrature), along
+  the band's line with the force at the MJCF length, and at the band's (as the model applies it); and the
+  circulation of the band's correction round the path (mm rad), which no choice of length removes.
+
+    python benchmarks/band_potential.py [--tendon T ...] [--folder DIR] [--loop ELEVATION PLANE0 PLANE1 ROT0 ROT1]
+"""
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from shoulder_bench import full_arm
+from shoulder_bench.band_lines import AXES, BAND_TENDONS, BandLines, integrate_arms, read_table, table_path
+from shoulder_bench.tendon_law import TendonLaw
+
+
+def study(tendon: str, folder, pose: full_arm.Pose, law: TendonLaw) -> dict:
+    arrays, _ = read_table(table_path(tendon, folder))
+    axes = [arrays[k] for k in AXES]
+    steps = [np.radians(a[1] - a[0]) for a in axes]
+    _, band_res = integrate_arms(arrays["moment_arm_m"], steps)
+    mjcf, mjcf_res = integrate_arms(arrays["mjcf_moment_arm_m"], steps)
+    poses = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    length = pose.tendon_geometry(poses, (tendon,))[0][:, 0]
+    control = mjcf.ravel() - (length - length[0])
+    d = BandLines.load((tendon,), folder).lengthening(poses)[0][:, 0]  # D as the model reads it: 0 at the anchor
+    column = law.actuators.index(tendon)
+    table = law.tables[column]
+    forces = {}
+    for a in (1.0, 0.0):
+        act = np.full((len(poses), len(law.muscles)), a)
+        at = np.repeat(length[:, None], len(law.actuators), axis=1)
+        f_mjcf = law.force(at, 0.0, act)[:, column]
+        at[:, column] += d
+        forces[a] = float(np.abs(law.force(at, 0.0, act)[:, column] - f_mjcf).max() / table.force_N.max())
+    return {"tendon": tendon, "grid": mjcf.shape, "control_mm": 1e3 * np.abs(control - control.mean()).max(),
+            "band_res_mm": 1e3 * np.array([np.sqrt(np.mean(band_res ** 2)), np.abs(band_res).max()]),
+            "mjcf_res_mm": 1e3 * np.array([np.sqrt(np.mean(mjcf_res ** 2)), np.abs(mjcf_res).max()]),
+            "range_mm": 1e3 * float(d.max() - d.min()),
+            "range_lopt": float(d.max() - d.min()) / float(table.meta["optimal_fibre_length_m"]),
+            "force_a1": 100 * forces[1.0], "force_a0": 100 * forces[0.0]}
+
+
+def loop_work(tendon: str, folder, pose: full_arm.Pose, corners, steps: int = 200) -> dict:
+    """Work (J) of the tendon alone at a = 1 round the closed path through `corners` (deg), trapezoid rule."""
+    q = np.concatenate([np.asarray(a, float) + (np.asarray(b, float) - a) * np.linspace(0, 1, steps, endpoint=False)
+                        [:, None] for a, b in zip(corners, corners[1:] + corners[:1])])
+    dq = np.radians(np.roll(q, -1, axis=0) - q)
+    out = {}
+    for name in ("MJCF path", "band, MJCF length", "band, band length"):
+        law = TendonLaw.load("fem", (tendon,), line_of_action="mjcf" if name == "MJCF path" else "band")
+        if law.lines is not None:
+            law.lines = BandLines.load((tendon,), folder)
+            if name == "band, MJCF length":
+                law.lines.lengths[:] = 0.0
+        length, r = law.geometry(pose, q)
+        gen = law.force(length, np.zeros_like(length), np.ones((len(q), 1)))[:, :1] * r[:, 0]
+        out[name] = float(np.sum((gen + np.roll(gen, -1, axis=0)) / 2 * dq))
+    c = BandLines.load((tendon,), folder).correction(q)[:, 0]
+    out["circulation_mm_rad"] = 1e3 * float(np.sum((c + np.roll(c, -1, axis=0)) / 2 * dq))
+    return out
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--tendon", action="append", choices=BAND_TENDONS)
+    p.add_argument("--folder", default=None, help="the band tables' folder (default: the shipped ones)")
+    p.add_argument("--loop", nargs=5, type=float, metavar=("ELEVATION", "PLANE0", "PLANE1", "ROT0", "ROT1"))
+    args = p.parse_args(argv)
+    pose, law = full_arm.Pose(), TendonLaw.load()
+    tendons = args.tendon or BAND_TENDONS
+    if args.loop:
+        e, p0, p1, r0, r1 = args.loop
+        corners = [(p0, e, r0), (p1, e, r0), (p1, e, r1), (p0, e, r1)]
+        print(f"work at a = 1 round plane {p0:g}-{p1:g}, rotation {r0:g}-{r1:g} deg at elevation {e:g} deg (J)")
+        for t in tendons:
+            w = loop_work(t, args.folder, pose, corners)
+            print(f"{t:>6} " + "  ".join(f"{k} {v:.4f}" for k, v in w.items()))
+        return 0
+    print(f"{'tendon':>6} {'grid':>12} {'control':>8} {'band residual':>15} {'MJCF residual':>15} "
+          f"{'D range':>8} {'/ l_opt':>7} {'dF a=1':>7} {'dF a=0':>7}")
+    print(f"{'':>6} {'':>12} {'(mm)':>8} {'RMS / max (mm)':>15} {'RMS / max (mm)':>15} {'(mm)':>8} {'':>7} "
+          f"{'(% F0)':>7} {'(% F0)':>7}")
+    for t in tendons:
+        s = study(t, args.folder, pose, law)
+        print(f"{t:>6} {'x'.join(map(str, s['grid'])):>12} {s['control_mm']:8.3f} "
+              f"{s['band_res_mm'][0]:7.3f} /{s['band_res_mm'][1]:6.2f} {s['mjcf_res_mm'][0]:7.3f} /"
+              f"{s['mjcf_res_mm'][1]:6.2f} {s['range_mm']:8.2f} {s['range_lopt']:7.3f} {s['force_a1']:7.1f} "
+              f"{s['force_a0']:7.1f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
