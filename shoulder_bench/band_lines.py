@@ -2,11 +2,11 @@
 moment arms, applied at every RK4 stage. How the tables are made: `shoulder_bench.authoring.fem.bands`, docs/fem.md
 "Taut bands".
 
-A tendon t with a band table pulls with its FEM force F_t(L_MT, a) (`tendon_law.TendonLaw`) along its MJCF path,
-which MuJoCo's tendon transmission applies (generalised force F_t r_MJCF(q) about plane, elevation and rotation), and
-here in addition with F_t c_t(q) about the three coordinates: c_t the taut band's moment arms less the MJCF's, tabled on
-the tasks' pose grid and read trilinearly (poses beyond the grid at its edges). Together: F_t (r_MJCF + c_t), the
-band's line of action. The tendons without a table (dmi, cor) keep their MJCF paths.
+A tendon t with a band table pulls with its FEM force F_t (`tendon_law.TendonLaw`; at the band's length, below)
+along its MJCF path, which MuJoCo's tendon transmission applies (generalised force F_t r_MJCF(q) about plane, elevation
+and rotation), and here in addition with F_t c_t(q) about the three coordinates: c_t the taut band's moment arms less
+the MJCF's, tabled on the tasks' pose grid and read trilinearly (poses beyond the grid at its edges). Together: F_t
+(r_MJCF + c_t), the band's line of action. The tendons without a table (dmi, cor) keep their MJCF paths.
 
 Why a passive-force callback: a MuJoCo actuator acts along its transmission only (here the MJCF tendon), and no
 transmission has a pose-dependent direction of its own; `mjcb_passive` is MuJoCo's hook for generalised forces added
