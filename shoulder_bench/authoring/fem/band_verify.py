@@ -40,7 +40,7 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
        plus the level table's move from a = 1 where the tendon has one (`band_levels`), else c(q); a pose where the
        band finds no equilibrium at a level counts as unsolved.
     2. What MuJoCo applies with the tables (the task option line_of_action="band", `band_lines`): each tendon alone,
-       at every grid pose and activation level, against F(L(q), a) r_band(q) (`verify_full.applied_vs_fem`); bound
+       at every grid pose and activation level, against F(L_band(q), a) r_band(q) (`verify_full.applied_vs_fem`); bound
        `verify_full.APPLIED_TOL`."""
     from shoulder_bench.authoring.fem.footprint_grid import cells
     from shoulder_bench.authoring.fem.verify import report

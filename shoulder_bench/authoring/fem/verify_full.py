@@ -123,8 +123,8 @@ def applied_checks(law, muscle: str, poses: np.ndarray, arms: np.ndarray | None 
                    geometry: str | None = None) -> list[Check]:
     """`law` (one muscle's) attached to the full shoulder (the model of `geometry`, default intact): S^T
     (qfrc_actuator + the passive callback's band forces) at `poses` (P, 3) deg and every level against F(L(q), a)
-    times `arms` (P, tendons, 3) or `arms(a)`, default the MJCF tendons' arms; bound APPLIED_TOL of the muscle's
-    peak |torque| in each coordinate."""
+    (L: `law.geometry`'s, the bands' lengths where it has band lines) times `arms` (P, tendons, 3) or `arms(a)`,
+    default the MJCF tendons' arms; bound APPLIED_TOL of the muscle's peak |torque| in each coordinate."""
     from shoulder_bench.model import attach_law, install_callbacks
 
     m = full_arm.compile_full(geometry)
