@@ -24,7 +24,12 @@ edge from pose i to pose j along coordinate k, L_j - L_i = -h_k (r_k,i + r_k,j) 
   the band's line with the force at the MJCF length, and at the band's (as the model applies it); and the
   circulation of the band's correction round the path (mm rad), which no choice of length removes.
 
+* with --solve N: D against the bands themselves, solved at N random poses (`solved_lengths`), and how far the
+  band's fibres' length changes from the anchor pose differ across its width (in l_opt: what a law keyed on one
+  length cannot see).
+
     python benchmarks/band_potential.py [--tendon T ...] [--folder DIR] [--loop ELEVATION PLANE0 PLANE1 ROT0 ROT1]
+                                        [--solve N]
 """
 from __future__ import annotations
 
@@ -84,14 +89,61 @@ def loop_work(tendon: str, folder, pose: full_arm.Pose, corners, steps: int = 20
     return out
 
 
+def solved_lengths(tendon: str, folder, poses_deg) -> dict:
+    """D(q) - D(anchor) as the model reads it against the solved band's own: at each pose the band solved (full
+    resolution, its table's contact surface, rest="pose", a = 1), its fibres' lengths from the nodes (the central
+    fibre's and the mean over the width) plus the path beyond P, less the MJCF tendon's length, each less its value at
+    the anchor pose (mm)."""
+    from shoulder_bench.authoring.fem import bands
+    from shoulder_bench.authoring.fem.footprint import FootprintSheet
+    from shoulder_bench.band_lines import LENGTH_ANCHOR_DEG
+
+    sheet = FootprintSheet(tendon, "full", surface=bands.surface(tendon), rest="pose")
+    poses = np.vstack([LENGTH_ANCHOR_DEG, np.atleast_2d(poses_deg)])
+    central, mean, spread = [], [], []
+    for q in poses:
+        x = sheet.solve(tuple(q))["nodes"].reshape(sheet.ns, sheet.nt, 3)
+        fibres = np.linalg.norm(np.diff(x, axis=0), axis=2).sum(axis=0)  # (nt,) each fibre's length
+        beyond = sheet.beyond_length()
+        central.append(fibres[sheet.nt // 2] + beyond)
+        mean.append(fibres.mean() + beyond)
+        spread.append(fibres)
+    mjcf = full_arm.Pose().tendon_geometry(poses, (tendon,))[0][:, 0]
+    model = BandLines.load((tendon,), folder).lengthening(poses)[0][:, 0]
+    out = {"model": model[1:] - model[0]}
+    for name, own in (("central fibre", np.array(central)), ("mean fibre", np.array(mean))):
+        d = own - mjcf
+        out[name] = d[1:] - d[0]
+    out = {k: 1e3 * v for k, v in out.items()}
+    change = np.array(spread[1:]) - spread[0]  # each fibre's length change from the anchor pose
+    l_opt = TendonLaw.load("fem", (tendon,)).tables[0].meta["optimal_fibre_length_m"]
+    out["spread_lopt"] = np.ptp(change, axis=1) / l_opt
+    return out
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--tendon", action="append", choices=BAND_TENDONS)
     p.add_argument("--folder", default=None, help="the band tables' folder (default: the shipped ones)")
     p.add_argument("--loop", nargs=5, type=float, metavar=("ELEVATION", "PLANE0", "PLANE1", "ROT0", "ROT1"))
+    p.add_argument("--solve", type=int, metavar="N", help="check D against N bands solved at random poses")
     args = p.parse_args(argv)
     pose, law = full_arm.Pose(), TendonLaw.load()
     tendons = args.tendon or BAND_TENDONS
+    if args.solve:
+        lo, hi = np.array([0.0, 0.0, -45.0]), np.array([90.0, 140.0, 60.0])
+        poses = lo + (hi - lo) * np.random.default_rng(0).random((args.solve, 3))
+        print(f"D(q) - D(30, 45, 0) (mm): the model's against the solved band's, at {args.solve} random poses (seed 0)")
+        for t in tendons:
+            got = solved_lengths(t, args.folder, poses)
+            for name in ("central fibre", "mean fibre"):
+                e = got[name] - got["model"]
+                print(f"{t:>6} vs {name:<13}: model range {np.ptp(got['model']):6.2f}, difference RMS "
+                      f"{np.sqrt(np.mean(e ** 2)):5.2f} largest {np.abs(e).max():5.2f}")
+            print(f"{t:>6} fibres' length change from the anchor across the band: largest - smallest "
+                  f"{np.median(got['spread_lopt']):.3f} l_opt (median over the poses), up to "
+                  f"{got['spread_lopt'].max():.3f} l_opt")
+        return 0
     if args.loop:
         e, p0, p1, r0, r1 = args.loop
         corners = [(p0, e, r0), (p1, e, r0), (p1, e, r1), (p0, e, r1)]
