@@ -228,7 +228,6 @@ class BandLines:
         _corrections(self.table, self.grid, self.shape, q, a, out)
         return out
 
-
     def lengthening(self, poses_deg, rates_rad_s=None, activation=1.0) -> tuple[np.ndarray, np.ndarray]:
         """((P, n) m, (P, n) m/s): each tendon's band length less its MJCF path's at `poses_deg` (P, 3), and its
         lengthening rate less the MJCF path's, -c . qdot at the coordinates' rates `rates_rad_s` (P, 3) (None: at
