@@ -21,8 +21,9 @@ edge from pose i to pose j along coordinate k, L_j - L_i = -h_k (r_k,i + r_k,j) 
   (passive), in % of F0;
 * with --loop: the work (J) a tendon alone at a = 1 does round a closed path of poses (a rectangle in plane and
   rotation at one elevation, 4 x 200 steps): along its MJCF path (a gradient: zero but for the quadrature), along
-  the band's line with the force at the MJCF length, and at the band's (as the model applies it); and the
-  circulation of the band's correction round the path (mm rad), which no choice of length removes.
+  the band's line with the force at the MJCF length, and at the band's (as the model applies it); the work along
+  the path's steps summed without sign (the scale); and the circulation of the band's correction round the path (mm
+  rad), which no choice of length removes.
 
 * with --solve N: D against the bands themselves, solved at N random poses (`solved_lengths`), and how far the
   band's fibres' length changes from the anchor pose differ across its width (in l_opt: what a law keyed on one
@@ -83,7 +84,10 @@ def loop_work(tendon: str, folder, pose: full_arm.Pose, corners, steps: int = 20
                 law.lines.lengths[:] = 0.0
         length, r = law.geometry(pose, q)
         gen = law.force(length, np.zeros_like(length), np.ones((len(q), 1)))[:, :1] * r[:, 0]
-        out[name] = float(np.sum((gen + np.roll(gen, -1, axis=0)) / 2 * dq))
+        step = (gen + np.roll(gen, -1, axis=0)) / 2 * dq
+        out[name] = float(np.sum(step))
+        if name == "band, band length":  # the scale: the work done along the path's steps, summed without sign
+            out["|work| along the path"] = float(np.abs(step).sum())
     c = BandLines.load((tendon,), folder).correction(q)[:, 0]
     out["circulation_mm_rad"] = 1e3 * float(np.sum((c + np.roll(c, -1, axis=0)) / 2 * dq))
     return out
