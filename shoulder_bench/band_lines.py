@@ -42,6 +42,7 @@ band table it goes with).
 """
 from __future__ import annotations
 
+import functools
 import json
 import math
 from pathlib import Path
@@ -151,6 +152,20 @@ def band_length(correction: np.ndarray, axes_deg) -> np.ndarray:
     return d - float(anchor.ravel()[0])
 
 
+def _table_length(path: Path) -> np.ndarray:
+    """`band_length` of the band table at `path` on its own grid, computed once per file version in a process."""
+    stat = Path(path).stat()
+    return _length_of(str(Path(path).resolve()), stat.st_mtime_ns, stat.st_size)
+
+
+@functools.lru_cache(maxsize=64)
+def _length_of(path: str, mtime_ns: int, size: int) -> np.ndarray:
+    a, _ = read_table(Path(path))
+    d = band_length(a["moment_arm_m"] - a["mjcf_moment_arm_m"], [a[k] for k in AXES])
+    d.flags.writeable = False
+    return d
+
+
 class BandLines:
     """The band corrections of `tendons` on one grid and at activation `levels` (ascending, equal steps, ending at 1;
     (1.0,) when none depends on it): `correction(poses_deg, activation)` (P, n, 3) m. `load` reads the tables."""
@@ -206,8 +221,7 @@ class BandLines:
         out, lengths = [], []
         for t, (a, _) in zip(tendons, tables):
             own = [a[k] for k in AXES]
-            lengths.append(_resample(band_length(a["moment_arm_m"] - a["mjcf_moment_arm_m"], own)[..., None], own,
-                                     axes)[..., 0])
+            lengths.append(_resample(_table_length(table_path(t, folder))[..., None], own, axes)[..., 0])
             c = _resample(a["moment_arm_m"] - a["mjcf_moment_arm_m"], own, axes)
             at = [np.zeros_like(c)] * len(descending)  # each level's arms less the a = 1 arms
             if t in levels:
