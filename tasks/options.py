@@ -40,9 +40,10 @@ OPTIONS = {
                  "U[LO, HI] kg at the elbow; keys left out are not randomised)",
     "fatigue": "False, True or a dict of 3CC-r parameters F, R, r, LD, LR: per-muscle fatigue, the residual "
                "capacity 1 - M_F caps the activation",
-    "line_of_action": "'mjcf' or 'band' (3-DOF tasks only): 'band' makes ssp, isp, tmi, tma, pec1, pec2, pec3 and "
-                      "dpo act along their FEM footprint sheet's line of action (shoulder_bench.band_lines), the "
-                      "others along their MJCF paths",
+    "line_of_action": "'mjcf' or 'band' (3-DOF tasks only): 'band' makes the tendons with a band table (ssp, isp, "
+                      "ssc, tmi, tma, pec1-3, dpo, dan, ld1-3) act along their FEM footprint sheet's line of action, "
+                      "their force read at the band's length (shoulder_bench.band_lines), the others (dmi, cor) along "
+                      "their MJCF paths",
 }
 
 # each option's default, as `shoulder-bench tasks --options` shows it (None where the task decides)
