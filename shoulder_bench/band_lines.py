@@ -251,7 +251,8 @@ class BandLines:
         a = np.ascontiguousarray(np.broadcast_to(np.clip(activation, 0.0, 1.0), (len(q), len(self.tendons))),
                                  dtype=np.float64)
         dl, dv = np.empty((len(q), len(self.tendons))), np.empty((len(q), len(self.tendons)))
-        _lengthenings(self.lengths, self.table, self.grid, self.shape, q, np.ascontiguousarray(v), a, dl, dv)
+        _lengthenings(self.lengths[:, None, ..., None], self.table, self.grid, self.shape, q,
+                      np.ascontiguousarray(v), a, dl, dv)
         return dl, dv
 
 
@@ -318,19 +319,12 @@ def _corrections(table, grid, shape, q, a, out):
 
 @numba.njit(inline="always")
 def band_lengthening(lengths, table, b, a, q0, q1, q2, v0, v1, v2, grid, shape):
-    """Tendon b's band length less its MJCF path's at pose (q0, q1, q2) rad (`lengths` read trilinearly) and its
-    lengthening rate less the MJCF path's at the coordinates' rates (v0, v1, v2) rad/s along the line at activation
-    a: -(c_0 v0 + c_1 v1 + c_2 v2). The one implementation: `BandLines.lengthening` and the compiled actuator
-    callbacks both inline it."""
+    """Tendon b's band length less its MJCF path's at pose (q0, q1, q2) rad (`lengths`, (n, 1, P, E, R, 1): one
+    level, one component, read trilinearly by `band_point`) and its lengthening rate less the MJCF path's at the
+    coordinates' rates (v0, v1, v2) rad/s along the line at activation a: -(c_0 v0 + c_1 v1 + c_2 v2). The one
+    implementation: `BandLines.lengthening` and the compiled actuator callbacks both inline it."""
     i0, w0, i1, w1, i2, w2 = band_cells(q0, q1, q2, grid, shape)
-    dl = 0.0
-    for d0 in range(2):
-        u0 = w0 if d0 else 1.0 - w0
-        for d1 in range(2):
-            u1 = w1 if d1 else 1.0 - w1
-            for d2 in range(2):
-                u2 = w2 if d2 else 1.0 - w2
-                dl += u0 * u1 * u2 * lengths[b, i0 + d0, i1 + d1, i2 + d2]
+    dl = band_point(lengths, b, 0, 0, 0.0, i0, w0, i1, w1, i2, w2)
     j, wj = band_level(a, grid, shape)
     dv = -(v0 * band_point(table, b, 0, j, wj, i0, w0, i1, w1, i2, w2)
            + v1 * band_point(table, b, 1, j, wj, i0, w0, i1, w1, i2, w2)

@@ -181,7 +181,7 @@ def _band_state(m, d, address, i, a):
             grid = numba.carray(_f64p(block[BGRID]), 8)
             shape = numba.carray(_i64p(block[BSHAPE]), 4)
             table = numba.carray(_f64p(block[BTABLE]), (nb, shape[3], shape[0], shape[1], shape[2], 3))
-            lengths = numba.carray(_f64p(block[BLEN]), (nb, shape[0], shape[1], shape[2]))
+            lengths = numba.carray(_f64p(block[BLEN]), (nb, 1, shape[0], shape[1], shape[2], 1))
             qadr = numba.carray(_i64p(block[BQADR]), 3)
             dadr = numba.carray(_i64p(block[BDADR]), 3)
             qpos = numba.carray(_f64p(_word(dp + root[D_QPOS])), max(qadr[0], qadr[1], qadr[2]) + 1)
