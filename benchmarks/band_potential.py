@@ -27,10 +27,11 @@ edge from pose i to pose j along coordinate k, L_j - L_i = -h_k (r_k,i + r_k,j) 
 
 * with --solve N: D against the bands themselves, solved at N random poses (`solved_lengths`), and how far the
   band's fibres' length changes from the anchor pose differ across its width (in l_opt: what a law keyed on one
-  length cannot see).
+  length cannot see);
+* with --figure PNG: D over plane of elevation x axial rotation at elevation 30 and 90 deg (ssc and isp, or --tendon's).
 
     python benchmarks/band_potential.py [--tendon T ...] [--folder DIR] [--loop ELEVATION PLANE0 PLANE1 ROT0 ROT1]
-                                        [--solve N]
+                                        [--solve N] [--figure PNG]
 """
 from __future__ import annotations
 
@@ -125,13 +126,46 @@ def solved_lengths(tendon: str, folder, poses_deg) -> dict:
     return out
 
 
+def figure(path: str, folder, tendons=("ssc", "isp"), elevations=(30.0, 90.0)) -> None:
+    """D (mm) as the model reads it over plane of elevation x axial rotation, at `elevations`, for `tendons`."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    lines = BandLines.load(tuple(tendons), folder)
+    planes, rotations = np.linspace(0.0, 90.0, 91), np.linspace(-45.0, 60.0, 106)
+    fig, axes = plt.subplots(len(tendons), len(elevations), figsize=(4.2 * len(elevations), 3.4 * len(tendons)),
+                             squeeze=False, constrained_layout=True)
+    for row, t in enumerate(tendons):
+        grids = []
+        for e in elevations:
+            pp, rr = np.meshgrid(planes, rotations, indexing="ij")
+            poses = np.stack([pp.ravel(), np.full(pp.size, e), rr.ravel()], axis=1)
+            grids.append(1e3 * lines.lengthening(poses)[0][:, row].reshape(pp.shape))
+        lim = max(np.abs(g).max() for g in grids)
+        for col, (e, g) in enumerate(zip(elevations, grids)):
+            ax = axes[row, col]
+            im = ax.pcolormesh(rotations, planes, g, cmap="RdBu_r", vmin=-lim, vmax=lim, shading="auto")
+            ax.set_title(f"{t}, elevation {e:g} deg (D = 0 at (30, 45, 0))", fontsize=9)
+            ax.set_xlabel("axial rotation (deg, + internal)")
+            ax.set_ylabel("plane of elevation (deg)")
+        fig.colorbar(im, ax=axes[row].tolist(), label="D = L_band - L_MJCF (mm)")
+    fig.savefig(path, dpi=110)
+    print(f"wrote {path}")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--tendon", action="append", choices=BAND_TENDONS)
     p.add_argument("--folder", default=None, help="the band tables' folder (default: the shipped ones)")
     p.add_argument("--loop", nargs=5, type=float, metavar=("ELEVATION", "PLANE0", "PLANE1", "ROT0", "ROT1"))
     p.add_argument("--solve", type=int, metavar="N", help="check D against N bands solved at random poses")
+    p.add_argument("--figure", metavar="PNG", help="plot D of ssc and isp (or --tendon's) over plane x rotation")
     args = p.parse_args(argv)
+    if args.figure:
+        figure(args.figure, args.folder, tuple(args.tendon or ("ssc", "isp")))
+        return 0
     pose, law = full_arm.Pose(), TendonLaw.load()
     tendons = args.tendon or BAND_TENDONS
     if args.solve:
