@@ -52,9 +52,10 @@ class ReferenceController3:
         tau = S.T @ full @ S @ alpha + S.T @ d.qfrc_bias
         ids = [m.actuator(t).id for t in self.law.actuators]
         L, r = self.law.geometry(pose, q_deg, act)  # the arms at the present activations (band level tables)
+        v = self.law.lengthening_rates(q_deg, dq, d.actuator_velocity[ids], act)[0]  # the bands' along their line
         lo = np.clip(act - protocol.ACTION_LIMIT, 0.0, 1.0)
         hi = np.clip(act + protocol.ACTION_LIMIT, 0.0, 1.0)
-        return self.statics.distribute(L[0], r[0], d.actuator_velocity[ids], tau, act, lo, hi)
+        return self.statics.distribute(L[0], r[0], v, tau, act, lo, hi)
 
     def __call__(self, obs: torch.Tensor) -> torch.Tensor:
         x = obs.detach().cpu().numpy().astype(float)

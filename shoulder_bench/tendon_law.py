@@ -164,12 +164,29 @@ class TendonLaw:
         ((muscles,) or (P, muscles); None: a = 1): the lengths and arms the muscles act with in MuJoCo."""
         L, r = pose.tendon_geometry(poses_deg, self.actuators)
         if self.lines is not None:
-            cols = [self.actuators.index(t) for t in self.lines.tendons]
-            a = 1.0 if activation is None else \
-                np.asarray(activation, dtype=float).reshape(-1, len(self.muscles))[:, self.muscle_of[cols]]
+            cols, a = self._band_activation(activation)
             r[:, cols] += self.lines.correction(poses_deg, a)
             L[:, cols] += self.lines.lengthening(poses_deg)[0]
         return L, r
+
+    def lengthening_rates(self, poses_deg, rates_rad_s, mjcf_rates, activation=None) -> np.ndarray:
+        """(P, n) m/s: the tendons' lengthening rates as the callbacks read them: the MJCF paths' `mjcf_rates` (P, n)
+        (MuJoCo's actuator_velocity at gear 1), and for the band tendons (`lines`) the band's, their rate less the
+        MJCF path's at the coordinates' rates `rates_rad_s` (P, 3) along the line at `activation` (as `geometry`)
+        added."""
+        v = np.array(np.atleast_2d(mjcf_rates), dtype=float)
+        if self.lines is not None:
+            cols, a = self._band_activation(activation)
+            v[:, cols] += self.lines.lengthening(poses_deg, rates_rad_s, a)[1]
+        return v
+
+    def _band_activation(self, activation) -> tuple[list[int], np.ndarray | float]:
+        """The band tendons' columns and their activations from `activation` per muscle ((muscles,) or (P,
+        muscles); None: 1)."""
+        cols = [self.actuators.index(t) for t in self.lines.tendons]
+        a = 1.0 if activation is None else \
+            np.asarray(activation, dtype=float).reshape(-1, len(self.muscles))[:, self.muscle_of[cols]]
+        return cols, a
 
     def kernel_arguments(self) -> tuple:
         """(flat table, arms (K, n) of -1, activation levels, first knot per tendon (m), 1 / knot step per tendon,

@@ -94,6 +94,9 @@ def test_the_band_force_is_read_at_the_band_length_and_lengthening_rate_with_eit
     length[cols] += dl[0]
     speed[cols] += dv[0]
     act = np.full((1, len(law.muscles)), 0.6)
+    # what the planners read (TendonLaw.geometry, lengthening_rates) is what the callbacks read
+    np.testing.assert_allclose(law.geometry(pose, POSE, act)[0][0], length, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(law.lengthening_rates(POSE, rates, d.actuator_velocity[ids], act)[0], speed, atol=1e-15)
     np.testing.assert_allclose(-d.actuator_force[ids], law.force(length[None], speed[None], act)[0], rtol=1e-9)
     # the length counts: at the MJCF path's length ssc's force differs by newtons here
     mjcf = law.force(d.actuator_length[ids][None], speed[None], act)[0]
