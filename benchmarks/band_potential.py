@@ -62,7 +62,7 @@ def study(tendon: str, folder, pose: full_arm.Pose, law: TendonLaw) -> dict:
         at = np.repeat(length[:, None], len(law.actuators), axis=1)
         f_mjcf = law.force(at, 0.0, act)[:, column]
         at[:, column] += d
-        forces[a] = float(np.abs(law.force(at, 0.0, act)[:, column] - f_mjcf).max() / table.force_N.max())
+        forces[a] = float(np.abs(law.force(at, 0.0, act)[:, column] - f_mjcf).max() / table.meta["F0_N"])
     return {"tendon": tendon, "grid": mjcf.shape, "control_mm": 1e3 * np.abs(control - control.mean()).max(),
             "band_res_mm": 1e3 * np.array([np.sqrt(np.mean(band_res ** 2)), np.abs(band_res).max()]),
             "mjcf_res_mm": 1e3 * np.array([np.sqrt(np.mean(mjcf_res ** 2)), np.abs(mjcf_res).max()]),
