@@ -27,7 +27,8 @@ edge from pose i to pose j along coordinate k, L_j - L_i = -h_k (r_k,i + r_k,j) 
 
 * with --solve N: D against the bands themselves, solved at N random poses (`solved_lengths`), and how far the
   band's fibres' length changes from the anchor pose differ across its width (in l_opt: what a law keyed on one
-  length cannot see);
+  length cannot see), and what that does to the active force if each fibre were a pennated Hill fibre at its own
+  length in series with the rigid tendon (`_active`, the tables' geometry) against all at the band's one length;
 * with --figure PNG: D over plane of elevation x axial rotation at elevation 30 and 90 deg (ssc and isp, or --tendon's).
 
     python benchmarks/band_potential.py [--tendon T ...] [--folder DIR] [--loop ELEVATION PLANE0 PLANE1 ROT0 ROT1]
@@ -121,9 +122,25 @@ def solved_lengths(tendon: str, folder, poses_deg) -> dict:
         out[name] = d[1:] - d[0]
     out = {k: 1e3 * v for k, v in out.items()}
     change = np.array(spread[1:]) - spread[0]  # each fibre's length change from the anchor pose
-    l_opt = TendonLaw.load("fem", (tendon,)).tables[0].meta["optimal_fibre_length_m"]
+    meta = TendonLaw.load("fem", (tendon,)).tables[0].meta
+    l_opt = meta["optimal_fibre_length_m"]
     out["spread_lopt"] = np.ptp(change, axis=1) / l_opt
+    # each fibre at its own length (the band's model length plus its change's departure from the band's mean), a
+    # pennated Hill fibre in series with the rigid tendon, against all at the band's one length: active force, % F0
+    length = (mjcf + model)[1:, None] + (change - change.mean(axis=1, keepdims=True))
+    out["per_fibre_pct"] = 100 * np.abs(_active(length, meta).mean(axis=1) - _active((mjcf + model)[1:], meta))
     return out
+
+
+def _active(length_mt, meta) -> np.ndarray:
+    """Active axial force / F0 at a = 1 of a pennated fibre (constant thickness) in series with the rigid tendon, at
+    musculotendon lengths `length_mt` (m): the length-keyed tables' geometry (`fem.v2_sheet`), Hill's form."""
+    from shoulder_bench.authoring.fem.material import f_active
+
+    l_opt, alpha = meta["optimal_fibre_length_m"], meta["pennation_angle_rad"]
+    axial = (np.asarray(length_mt) - meta["tendon_slack_length_m"]) / l_opt
+    fibre = np.sqrt(axial ** 2 + np.sin(alpha) ** 2)
+    return f_active(fibre) * axial / fibre
 
 
 def figure(path: str, folder, tendons=("ssc", "isp"), elevations=(30.0, 90.0)) -> None:
@@ -180,7 +197,9 @@ def main(argv=None) -> int:
                       f"{np.sqrt(np.mean(e ** 2)):5.2f} largest {np.abs(e).max():5.2f}")
             print(f"{t:>6} fibres' length change from the anchor across the band: largest - smallest "
                   f"{np.median(got['spread_lopt']):.3f} l_opt (median over the poses), up to "
-                  f"{got['spread_lopt'].max():.3f} l_opt")
+                  f"{got['spread_lopt'].max():.3f} l_opt; each fibre at its own length against all at one: active "
+                  f"force {np.median(got['per_fibre_pct']):.2f} % of F0 (median), up to "
+                  f"{got['per_fibre_pct'].max():.2f} %")
         return 0
     if args.loop:
         e, p0, p1, r0, r1 = args.loop
