@@ -3,9 +3,9 @@
 
 A cable on frictionless surfaces pulls with the generalised force -T dL/dq: its moment arms r = -dL/dq are a
 gradient field over the pose space, and the same length L keys its force. MuJoCo's tendons are such cables (r_MJCF =
--ten_J S is the exact derivative of ten_length). With `line_of_action="band"` a tendon pulls with F(L_MJCF(q), a) along
-the band's arms r_band(q) from the table: the force keyed on the MJCF path's length, the line from the FEM. This
-script integrates each shipped band table's arms over its pose grid (least squares over the grid's edges: for the
+-ten_J S is the exact derivative of ten_length). With `line_of_action="band"` a tendon pulled with F(L_MJCF(q), a)
+along the band's arms r_band(q) from the table: the force keyed on the MJCF path's length, the line from the FEM; since
+this study the model reads it at L_MJCF + D (`band_lines.band_length`, D below). This script integrates each shipped band table's arms over its pose grid (least squares over the grid's edges: for the
 edge from pose i to pose j along coordinate k, L_j - L_i = -h_k (r_k,i + r_k,j) / 2, h_k the step in rad:
 `band_lines.integrate_arms`, as the model does) and prints:
 
@@ -13,7 +13,7 @@ edge from pose i to pose j along coordinate k, L_j - L_i = -h_k (r_k,i + r_k,j) 
   poses (largest difference, mm): the integration's error;
 * the edge residual (RMS and largest, mm) of the band's arms against the MJCF's: what of the band's field is not a
   gradient (the MJCF's residual is the trapezoid rule's error alone);
-* D(q) = L_band(q) - L_MJCF(q), both integrated alike, over the grid: its range (largest - smallest, mm; no constant
+* D(q) = L_band(q) - L_MJCF(q) as the model reads it (the potential of -(r_band - r_MJCF)), over the grid: its range (largest - smallest, mm; no constant
   fixes it), and that range in optimal fibre lengths l_opt (with the rigid tendon of the force tables, a change of
   the musculotendon length is a change of the fibre length);
 * the force the law gives at the band's length against at the MJCF's, the two lengths equal at the footprint sheets'
@@ -23,8 +23,7 @@ edge from pose i to pose j along coordinate k, L_j - L_i = -h_k (r_k,i + r_k,j) 
   rotation at one elevation, 4 x 200 steps): along its MJCF path (a gradient: zero but for the quadrature), along
   the band's line with the force at the MJCF length, and at the band's (as the model applies it); the work along
   the path's steps summed without sign (the scale); and the circulation of the band's correction round the path (mm
-  rad), which no choice of length removes.
-
+  rad), which no choice of length removes;
 * with --solve N: D against the bands themselves, solved at N random poses (`solved_lengths`), and how far the
   band's fibres' length changes from the anchor pose differ across its width (in l_opt: what a law keyed on one
   length cannot see), and what that does to the active force if each fibre were a pennated Hill fibre at its own
