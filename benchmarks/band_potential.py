@@ -5,17 +5,18 @@ A cable on frictionless surfaces pulls with the generalised force -T dL/dq: its 
 gradient field over the pose space, and the same length L keys its force. MuJoCo's tendons are such cables (r_MJCF =
 -ten_J S is the exact derivative of ten_length). With `line_of_action="band"` a tendon pulled with F(L_MJCF(q), a)
 along the band's arms r_band(q) from the table: the force keyed on the MJCF path's length, the line from the FEM; since
-this study the model reads it at L_MJCF + D (`band_lines.band_length`, D below). This script integrates each shipped band table's arms over its pose grid (least squares over the grid's edges: for the
-edge from pose i to pose j along coordinate k, L_j - L_i = -h_k (r_k,i + r_k,j) / 2, h_k the step in rad:
-`band_lines.integrate_arms`, as the model does) and prints:
+this study the model reads it at L_MJCF + D (`band_lines.band_length`, D below). This script integrates each shipped
+band table's arms over its pose grid (least squares over the grid's edges: for the edge from pose i to pose j along
+coordinate k, L_j - L_i = -h_k (r_k,i + r_k,j) / 2, h_k the step in rad: `band_lines.integrate_arms`, as the model
+does) and prints:
 
 * the control: the MJCF arms of the same table integrated the same way against MuJoCo's own ten_length at the grid
   poses (largest difference, mm): the integration's error;
 * the edge residual (RMS and largest, mm) of the band's arms against the MJCF's: what of the band's field is not a
   gradient (the MJCF's residual is the trapezoid rule's error alone);
-* D(q) = L_band(q) - L_MJCF(q) as the model reads it (the potential of -(r_band - r_MJCF)), over the grid: its range (largest - smallest, mm; no constant
-  fixes it), and that range in optimal fibre lengths l_opt (with the rigid tendon of the force tables, a change of
-  the musculotendon length is a change of the fibre length);
+* D(q) = L_band(q) - L_MJCF(q) as the model reads it (the potential of -(r_band - r_MJCF)), over the grid: its
+  range (largest - smallest, mm; no constant fixes it), and that range in optimal fibre lengths l_opt (with the rigid
+  tendon of the force tables, a change of the musculotendon length is a change of the fibre length);
 * the force the law gives at the band's length against at the MJCF's, the two lengths equal at the footprint sheets'
   reference pose (30, 45, 0, `band_lines.LENGTH_ANCHOR_DEG`): largest |difference| over the grid at a = 1 and a = 0
   (passive), in % of F0;
