@@ -42,7 +42,7 @@ band table it goes with).
 """
 from __future__ import annotations
 
-import functools
+import hashlib
 import json
 import math
 from pathlib import Path
@@ -146,31 +146,27 @@ def integrate_arms(arms: np.ndarray, steps_rad) -> tuple[np.ndarray, np.ndarray]
 def band_length(correction: np.ndarray, axes_deg) -> np.ndarray:
     """D = L_band - L_MJCF (P, E, R) m on a band table's grid `axes_deg`, from its correction c = r_band - r_MJCF
     (P, E, R, 3) m at a = 1: the least-squares potential of -c (`integrate_arms`), zero at LENGTH_ANCHOR_DEG (read
-    trilinearly)."""
-    d, _ = integrate_arms(correction, [np.radians(a[1] - a[0]) for a in axes_deg])
-    anchor = _resample(d[..., None], axes_deg, [np.array([v]) for v in LENGTH_ANCHOR_DEG])
-    return d - float(anchor.ravel()[0])
-
-
-def _table_length(path: Path) -> np.ndarray:
-    """`band_length` of the band table at `path` on its own grid, computed once per file version in a process."""
-    stat = Path(path).stat()
-    return _length_of(str(Path(path).resolve()), stat.st_mtime_ns, stat.st_size)
-
-
-@functools.lru_cache(maxsize=64)
-def _length_of(path: str, mtime_ns: int, size: int) -> np.ndarray:
-    a, _ = read_table(Path(path))
-    d = band_length(a["moment_arm_m"] - a["mjcf_moment_arm_m"], [a[k] for k in AXES])
-    d.flags.writeable = False
+    trilinearly). Solved once per correction and grid in a process (read-only; `_LENGTHS`)."""
+    axes = [np.asarray(a, dtype=float) for a in axes_deg]
+    key = hashlib.sha256(b"".join(np.ascontiguousarray(x, dtype=float).tobytes() for x in (correction, *axes)))
+    d = _LENGTHS.get(key.hexdigest())
+    if d is None:
+        d, _ = integrate_arms(correction, [np.radians(a[1] - a[0]) for a in axes])
+        d = d - float(_resample(d[..., None], axes, [np.array([v]) for v in LENGTH_ANCHOR_DEG]).ravel()[0])
+        d.flags.writeable = False
+        d = _LENGTHS.setdefault(key.hexdigest(), d)
     return d
+
+
+_LENGTHS: dict[str, np.ndarray] = {}  # band_length's solutions, by the digest of their correction and grid
 
 
 class BandLines:
     """The band corrections of `tendons` on one grid and at activation `levels` (ascending, equal steps, ending at 1;
-    (1.0,) when none depends on it): `correction(poses_deg, activation)` (P, n, 3) m. `load` reads the tables."""
+    (1.0,) when none depends on it), and their band lengths (`lengths`, (n, P, E, R) m: `band_length` on that grid):
+    `correction(poses_deg, activation)` (P, n, 3) m, `lengthening(...)`. `load` reads the tables."""
 
-    def __init__(self, tendons, axes_deg, correction: np.ndarray, levels=(1.0,), lengths: np.ndarray | None = None):
+    def __init__(self, tendons, axes_deg, correction: np.ndarray, lengths: np.ndarray, levels=(1.0,)):
         self.tendons = tuple(tendons)
         self.axes_deg = [np.asarray(a, dtype=float) for a in axes_deg]
         self.levels = np.asarray(levels, dtype=float)
@@ -185,9 +181,8 @@ class BandLines:
                                     [1.0 / np.radians(a[1] - a[0]) for a in self.axes_deg],
                                     [self.levels[0], 1.0 / da]])
         self.shape = np.array(shape[1:] + shape[:1], dtype=np.int64)  # planes, elevations, rotations, levels
-        # (n, P, E, R) m: each tendon's band length less its MJCF path's (`band_length`); zeros: the MJCF length
-        self.lengths = np.ascontiguousarray(np.zeros(self.table.shape[:1] + self.table.shape[2:5])
-                                            if lengths is None else lengths, dtype=np.float64)
+        # (n, P, E, R) m: each tendon's band length less its MJCF path's (`band_length`)
+        self.lengths = np.ascontiguousarray(lengths, dtype=np.float64)
         if self.lengths.shape != self.table.shape[:1] + self.table.shape[2:5]:
             raise ValueError(f"band lengths of shape {self.lengths.shape}, expected {self.table.shape[:1] + shape[1:]}")
 
@@ -221,15 +216,16 @@ class BandLines:
         out, lengths = [], []
         for t, (a, _) in zip(tendons, tables):
             own = [a[k] for k in AXES]
-            lengths.append(_resample(_table_length(table_path(t, folder))[..., None], own, axes)[..., 0])
-            c = _resample(a["moment_arm_m"] - a["mjcf_moment_arm_m"], own, axes)
+            correction = a["moment_arm_m"] - a["mjcf_moment_arm_m"]
+            lengths.append(_resample(band_length(correction, own)[..., None], own, axes)[..., 0])
+            c = _resample(correction, own, axes)
             at = [np.zeros_like(c)] * len(descending)  # each level's arms less the a = 1 arms
             if t in levels:
                 lv = levels[t]
                 at = [_resample(arms - lv["moment_arm_m"][0], [lv[k] for k in AXES], axes)
                       for arms in lv["moment_arm_m"]]
             out.append(np.stack([c + d for d in at[::-1]]))  # ascending in activation
-        return cls(tendons, axes, np.stack(out), descending[::-1], np.stack(lengths))
+        return cls(tendons, axes, np.stack(out), np.stack(lengths), descending[::-1])
 
     def correction(self, poses_deg, activation=1.0) -> np.ndarray:
         """(P, n, 3) m: each tendon's band moment arms less its MJCF ones at `poses_deg` (P, 3) and `activation` (a
