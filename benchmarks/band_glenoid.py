@@ -1,0 +1,117 @@
+"""Where a taut band touches the humeral head against where the glenoid is: does ssc's band, where it rolls over the
+head ("ssc on the lesser tuberosity" in docs/fem.md), pass between the head and the glenoid? (docs/fem.md "What
+remains of §2")
+
+    .venv/bin/python benchmarks/band_glenoid.py [--tendon T] [--line COORD A B START STOP STEP] [--at P E R ...]
+        [--scapula scapula.vtp]                                                              (a second a pose)
+
+The glenoid's axis: from the head's centre towards the trigonum spinae, the line glenoid version is measured against
+(Friedman RJ, Hawthorne KB, Genez BM. The use of computerized tomography in the measurement of glenoid version. J Bone
+Joint Surg Am 1992;74(7):1032), in 3-D: by that method the glenoid face lies within a few degrees of normal to it in the
+axial plane (version -0.5 +- 3 deg over 65 scapulae, Orthop J Sports Med 2022, doi:10.1177/23259671221083589); its
+tilt (inclination, 8.4 deg on average over 19 donors by 3-D CT, BMC Musculoskelet Disord 2021,
+doi:10.1186/s12891-021-04660-4) is not taken, small beside the glenoid's 37-53 deg of arc. The trigonum
+spinae stands in as the most medial vertex of the MoBL-ARMS parent's scapula surface (scapula.vtp of osim-rl 3.0.11,
+in the scapula body's frame; `--scapula PATH` recomputes it: `pip download osim-rl==3.0.11 --no-deps` as
+models/reference/scripts/humeral_head.py says): a proxy, not a landmark the mesh labels. The glenoid's size on the
+head: 39 mm high and 29 mm wide (Iannotti JP et al. The normal glenohumeral relationships. J Bone Joint Surg Am
+1992;74(4):491, 140 shoulders), i.e. about 53 deg and 37 deg of arc from its centre on the 24.3 mm head sphere.
+
+Each pose: the band solved as its table solves it (`FootprintSheet`, the table's contact surface, rest="pose", the
+ramp at a = 1), its moment arms and the MJCF path's (plane, elevation, rotation; mm), its tension, and of its nodes
+touching the head sphere (within 1 mm) the least angle from the glenoid axis (deg, from the head's centre) and how
+many lie inside the glenoid's outline (`glenoid_contact`): there the band lies between the head and the glenoid.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from shoulder_bench.authoring.fem import bands
+from shoulder_bench.authoring.fem.footprint import HUMERAL_HEAD, FootprintSheet
+from shoulder_bench.authoring.fem.solver import NoConvergence
+
+MEDIAL_VERTEX_M = np.array([-0.095237, -0.056267, -0.105782])  # scapula.vtp's most medial vertex (least z), m
+GLENOID_MM = (39.0, 29.0)  # height, width (Iannotti et al. 1992)
+TOUCH_M = 0.001
+
+
+def medial_vertex(path: str) -> np.ndarray:
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "models" / "reference" / "scripts"))
+    from humeral_head import vertices
+
+    x = vertices(path)
+    return x[np.argmin(x[:, 2])]
+
+
+def glenoid_contact(sheet: FootprintSheet, nodes: np.ndarray, axis_scapula: np.ndarray, arcs) -> tuple[float, int, int]:
+    """The band's nodes touching the head sphere (within TOUCH_M) against the glenoid: their least angle from its
+    axis (deg), how many lie inside its outline (an ellipse of half-arcs `arcs`, deg, its height along the scapula
+    frame's y made normal to the axis: the glenoid's long axis taken as the scapula's vertical), and how many touch."""
+    humerus, scapula = sheet.m.body("humerus").id, sheet.m.body("scapula").id
+    centre = sheet.d.xpos[humerus] + sheet.d.xmat[humerus].reshape(3, 3) @ np.asarray(HUMERAL_HEAD["centre_m"])
+    rot = sheet.d.xmat[scapula].reshape(3, 3)
+    axis = rot @ axis_scapula
+    high = rot[:, 1] - (rot[:, 1] @ axis) * axis
+    high /= np.linalg.norm(high)
+    wide = np.cross(axis, high)
+    rel = nodes.reshape(-1, 3) - centre
+    dist = np.linalg.norm(rel, axis=1)
+    u = rel[dist < HUMERAL_HEAD["radius_m"] + TOUCH_M]
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    if not len(u):
+        return float("nan"), 0, 0
+    along = u @ axis
+    angle = np.degrees(np.arccos(np.clip(along, -1.0, 1.0)))
+    t_high, t_wide = np.degrees(np.arctan2(u @ high, along)), np.degrees(np.arctan2(u @ wide, along))
+    inside = (along > 0) & ((t_high / arcs[0]) ** 2 + (t_wide / arcs[1]) ** 2 < 1.0)
+    return float(angle.min()), int(inside.sum()), len(u)
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--tendon", default="ssc", choices=bands.FOOTPRINT_TENDONS)
+    ap.add_argument("--line", nargs=6, default=["plane", "100", "-30", "0", "90", "7.5"],
+                    metavar=("COORD", "A", "B", "START", "STOP", "STEP"),
+                    help="vary COORD (plane, elevation or rotation) from START to STOP by STEP, the other two at A, B "
+                         "(in plane, elevation, rotation order); default: plane 0-90 at elevation 100, rotation -30")
+    ap.add_argument("--at", nargs=3, type=float, action="append", metavar=("P", "E", "R"), help="poses instead")
+    ap.add_argument("--scapula", help="scapula.vtp to take the medial vertex from (default: its stored value)")
+    args = ap.parse_args(argv)
+    sheet = FootprintSheet(args.tendon, "full", surface=bands.surface(args.tendon), rest="pose")
+    joint = sheet.m.body("scapphant").pos  # the glenohumeral joint centre in the scapula frame
+    medial = medial_vertex(args.scapula) if args.scapula else MEDIAL_VERTEX_M
+    axis = (medial - joint) / np.linalg.norm(medial - joint)
+    arcs = [np.degrees(np.arcsin(s / 2e3 / HUMERAL_HEAD["radius_m"])) for s in GLENOID_MM]
+    print(f"glenoid axis (scapula frame, towards the medial vertex {np.round(medial * 1e3, 1).tolist()} mm): "
+          f"{np.round(axis, 3).tolist()}; the glenoid reaches {arcs[0]:.0f} deg (height) and {arcs[1]:.0f} deg (width) "
+          "from its centre on the head")
+    if args.at:
+        poses = [tuple(p) for p in args.at]
+    else:
+        coord, a, b = args.line[0], float(args.line[1]), float(args.line[2])
+        index = ("plane", "elevation", "rotation").index(coord)
+        poses = []
+        for v in np.arange(float(args.line[3]), float(args.line[4]) + 1e-9, float(args.line[5])):
+            fixed = [a, b]
+            fixed.insert(index, float(v))
+            poses.append(tuple(fixed))
+    print(f"{args.tendon} on {bands.SURFACE_TEXT[bands.surface(args.tendon)]}; pose (deg) | band arms (mm) | MJCF arms "
+          "(mm) | tension (N) | nodes on the head: least angle from the glenoid axis (deg), inside its outline / all")
+    for pose in poses:
+        try:
+            sol = sheet.solve(pose)
+        except NoConvergence:
+            print(f"{list(pose)} | no equilibrium")
+            continue
+        least, inside, touching = glenoid_contact(sheet, sol["nodes"], axis, arcs)
+        print(f"{list(pose)} | {np.round(sol['moment_arm_m'] * 1e3, 1).tolist()} | "
+              f"{np.round(sheet.mjcf_moment_arm(pose) * 1e3, 1).tolist()} | {sol['tension_N']:.0f} | "
+              f"{least:.0f}, {inside} / {touching}")
+
+
+if __name__ == "__main__":
+    main()
