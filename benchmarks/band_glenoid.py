@@ -3,7 +3,7 @@ head ("ssc on the lesser tuberosity" in docs/fem.md), pass between the head and 
 remains of §2")
 
     .venv/bin/python benchmarks/band_glenoid.py [--tendon T] [--line COORD A B START STOP STEP] [--at P E R ...]
-        [--scapula scapula.vtp]                                                              (a second a pose)
+        [--scapula scapula.vtp] [--glenoid]                                                  (a second a pose)
 
 The glenoid's axis: from the head's centre towards the trigonum spinae, the line glenoid version is measured against
 (Friedman RJ, Hawthorne KB, Genez BM. The use of computerized tomography in the measurement of glenoid version. J Bone
@@ -32,9 +32,9 @@ import numpy as np
 
 from shoulder_bench.authoring.fem import bands
 from shoulder_bench.authoring.fem.footprint import HUMERAL_HEAD, FootprintSheet
+from shoulder_bench.authoring.fem.footprint_glenoid import MEDIAL_VERTEX_M, GlenoidSheet
 from shoulder_bench.authoring.fem.solver import NoConvergence
 
-MEDIAL_VERTEX_M = np.array([-0.095237, -0.056267, -0.105782])  # scapula.vtp's most medial vertex (least z), m
 GLENOID_MM = (39.0, 29.0)  # height, width (Iannotti et al. 1992)
 TOUCH_M = 0.001
 
@@ -80,10 +80,13 @@ def main(argv=None) -> None:
                          "(in plane, elevation, rotation order); default: plane 0-90 at elevation 100, rotation -30")
     ap.add_argument("--at", nargs=3, type=float, action="append", metavar=("P", "E", "R"), help="poses instead")
     ap.add_argument("--scapula", help="scapula.vtp to take the medial vertex from (default: its stored value)")
+    ap.add_argument("--glenoid", action="store_true",
+                    help="solve the band with the glenoid as a second contact (footprint_glenoid.GlenoidSheet)")
     args = ap.parse_args(argv)
-    sheet = FootprintSheet(args.tendon, "full", surface=bands.surface(args.tendon), rest="pose")
+    kind = GlenoidSheet if args.glenoid else FootprintSheet
+    sheet = kind(args.tendon, "full", surface=bands.surface(args.tendon), rest="pose")
     joint = sheet.m.body("scapphant").pos  # the glenohumeral joint centre in the scapula frame
-    medial = medial_vertex(args.scapula) if args.scapula else MEDIAL_VERTEX_M
+    medial = medial_vertex(args.scapula) if args.scapula else np.asarray(MEDIAL_VERTEX_M)
     axis = (medial - joint) / np.linalg.norm(medial - joint)
     arcs = [np.degrees(np.arcsin(s / 2e3 / HUMERAL_HEAD["radius_m"])) for s in GLENOID_MM]
     print(f"glenoid axis (scapula frame, towards the medial vertex {np.round(medial * 1e3, 1).tolist()} mm): "
@@ -99,8 +102,10 @@ def main(argv=None) -> None:
             fixed = [a, b]
             fixed.insert(index, float(v))
             poses.append(tuple(fixed))
-    print(f"{args.tendon} on {bands.SURFACE_TEXT[bands.surface(args.tendon)]}; pose (deg) | band arms (mm) | MJCF arms "
-          "(mm) | tension (N) | nodes on the head: least angle from the glenoid axis (deg), inside its outline / all")
+    also = " and the glenoid" if args.glenoid else ""
+    print(f"{args.tendon} on {bands.SURFACE_TEXT[bands.surface(args.tendon)]}{also}; pose (deg) | band arms (mm) | "
+          "MJCF arms (mm) | tension (N) | nodes on the head: least angle from the glenoid axis (deg), inside its "
+          "outline / all")
     for pose in poses:
         try:
             sol = sheet.solve(pose)

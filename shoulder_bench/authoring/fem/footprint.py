@@ -104,8 +104,26 @@ POSE_STEP_DEG = 10.0  # largest continuation step in any coordinate
 SETTINGS = SolverSettings(max_step_activation=0.25, max_iter=60)
 
 
+class _Problem(MuscleProblem):
+    """`MuscleProblem` with its boundary nodes and contact surface (sphere or cylinder) placed by the pose."""
+
+    def nodes_of(self, which: str) -> np.ndarray:
+        return self.origin if which == "origin" else self.insertion
+
+    def place(self, origin_xyz, insertion_xyz, centre, radius, axis=None):
+        self._origin_xyz, self._insertion_xyz = origin_xyz, insertion_xyz
+        self.centre, self.radius, self.axis = np.asarray(centre, float), float(radius), axis
+
+    def predict(self, x: np.ndarray, theta_from: float, theta_to: float) -> np.ndarray:
+        y = x.copy()
+        y[self.origin], y[self.insertion] = self._origin_xyz, self._insertion_xyz
+        return y
+
+
 class FootprintSheet:
     """One tendon's footprint sheet on the full model: build it at the reference pose, solve it at any pose."""
+
+    problem_class = _Problem  # the sheet's MuscleProblem (footprint_glenoid's sheets take a subclass)
 
     def __init__(self, tendon: str, resolution: str | tuple[int, int] = "coarse", width_m: float | None = None,
                  pose: full_arm.Pose | None = None, material: Material | None = None, surface: str = "wrap",
@@ -162,7 +180,7 @@ class FootprintSheet:
         shell = {"muscle": np.array(self.part.tendon), "nodes": X, "triangles": tri, "fibres": fibres,
                  "thickness": self.f0 / Blemker().sigma_max / self.width, "origin_nodes": idx[0],
                  "insertion_nodes": idx[-1], "theta_ref_deg": np.array(0.0)}
-        self.problem = _Problem(shell, self.material, SETTINGS, self.f0)
+        self.problem = self.problem_class(shell, self.material, SETTINGS, self.f0)
         self.reference = {k: (self._frame(k), X[self.problem.nodes_of(k)]) for k in ("origin", "insertion")}
 
     # -- kinematics -------------------------------------------------------------------------------------------------
@@ -181,8 +199,7 @@ class FootprintSheet:
         return rot.T @ (v if vector else v - pos)
 
     def _contact_surface(self):
-        """(centre, radius, axis or None, side point or None, body key) of the contact surface at the current pose,
-        or None (a straight tendon with surface="wrap")."""
+        """(centre, radius, axis or None, side point or None, body key) of the contact surface here, or None."""
         if self.surface == "head":
             pos, rot = self._frame("head")
             return pos + rot @ np.asarray(HUMERAL_HEAD["centre_m"]), HUMERAL_HEAD["radius_m"], None, None, "head"
@@ -369,13 +386,9 @@ class FootprintSheet:
         pb = self.problem
         g = membrane_forces(pb.mem, pb.kernel, x, activation) + (pb.reg_matrix @ (x - pb.X).ravel()).reshape(-1, 3)
         gc = pb._contact(x)[1].reshape(-1, 3)
-        q_nv = np.zeros(self.m.nv)
-        jacp = np.zeros((3, self.m.nv))
+        q_nv, jacp = np.zeros(self.m.nv), np.zeros((3, self.m.nv))
         loads = [("origin", i, -g[i]) for i in pb.nodes_of("origin")]
-        loads += [("insertion", i, -g[i]) for i in pb.nodes_of("insertion")]
-        surface = self._contact_surface()
-        if surface is not None:  # the free nodes push the surface's body where they touch it
-            loads += [(surface[4], i, gc[i]) for i in pb.free if np.any(gc[i] != 0.0)]
+        loads += [("insertion", i, -g[i]) for i in pb.nodes_of("insertion")] + self._contact_loads(x, gc)
         tension = float(np.linalg.norm(-g[pb.nodes_of("origin")].sum(0)))
         points = [(x[i], self.bodies[which], f) for which, i, f in loads]
         for a, b in zip(self.part.beyond, self.part.beyond[1:]):  # beyond P: each segment pulls its ends together
@@ -386,10 +399,14 @@ class FootprintSheet:
             mujoco.mj_jac(self.m, self.d, jacp, None, point, int(body))
             q_nv += jacp.T @ f
         q3 = self.pose.slopes(self.pose_deg).T @ q_nv
-        contact = float(np.linalg.norm(gc[pb.free].sum(0)))
         return {"nodes": x, "tension_N": tension, "torque_Nm": q3, "moment_arm_m": q3 / tension,
-                "contact_N": contact, "pose_deg": self.pose_deg.copy(), "activation": activation,
-                "stretch": self.central_length() / self.reference_length}
+                "contact_N": float(np.linalg.norm(gc[pb.free].sum(0))), "pose_deg": self.pose_deg.copy(),
+                "activation": activation, "stretch": self.central_length() / self.reference_length}
+
+    def _contact_loads(self, x: np.ndarray, gc: np.ndarray) -> list:
+        """The free nodes push the contact surface's body where they touch it (gc: the contact gradient, (N, 3))."""
+        surface = self._contact_surface()
+        return [] if surface is None else [(surface[4], i, gc[i]) for i in self.problem.free if np.any(gc[i] != 0.0)]
 
     def mjcf_moment_arm(self, pose_deg) -> np.ndarray:
         """(3,) the MJCF tendon's moment arms about plane, elevation, rotation at `pose_deg` (m)."""
@@ -401,20 +418,3 @@ def _f0(tendon: str) -> float:
     from shoulder_bench.authoring import mobl_data, tendons
 
     return float(tendons.load_parent()[mobl_data.FULL_MUSCLES[tendon]].f0)
-
-
-class _Problem(MuscleProblem):
-    """`MuscleProblem` with its boundary nodes placed by the pose (not rotated about one axis) and the contact
-    surface (sphere or cylinder) where the pose puts it."""
-
-    def nodes_of(self, which: str) -> np.ndarray:
-        return self.origin if which == "origin" else self.insertion
-
-    def place(self, origin_xyz, insertion_xyz, centre, radius, axis=None):
-        self._origin_xyz, self._insertion_xyz = origin_xyz, insertion_xyz
-        self.centre, self.radius, self.axis = np.asarray(centre, float), float(radius), axis
-
-    def predict(self, x: np.ndarray, theta_from: float, theta_to: float) -> np.ndarray:
-        y = x.copy()
-        y[self.origin], y[self.insertion] = self._origin_xyz, self._insertion_xyz
-        return y
