@@ -123,7 +123,7 @@ class _Problem(MuscleProblem):
 class FootprintSheet:
     """One tendon's footprint sheet on the full model: build it at the reference pose, solve it at any pose."""
 
-    problem_class = _Problem  # the sheet's MuscleProblem (footprint_glenoid's sheets take a subclass)
+    problem_class, activation_steps = _Problem, ACTIVATION_STEPS  # (footprint_glenoid's sheets take others)
 
     def __init__(self, tendon: str, resolution: str | tuple[int, int] = "coarse", width_m: float | None = None,
                  pose: full_arm.Pose | None = None, material: Material | None = None, surface: str = "wrap",
@@ -320,9 +320,9 @@ class FootprintSheet:
         return best
 
     def _activate(self, x: np.ndarray, activation: float) -> np.ndarray:
-        """The relaxed sheet `x` (at the placed pose) activated to `activation` in ACTIVATION_STEPS."""
+        """The relaxed sheet `x` (at the placed pose) activated to `activation` in `activation_steps`."""
         a0 = 0.0
-        for a in [s * activation for s in ACTIVATION_STEPS]:
+        for a in [s * activation for s in self.activation_steps]:
             x, _ = self.problem.step(x, (0.0, a0), (0.0, a))
             a0 = a
         return x

@@ -114,7 +114,7 @@ class _GlenoidProblem(FootprintSheet.problem_class):
 class GlenoidSheet(FootprintSheet):
     """A footprint sheet on the humeral head (surface="head") with the glenoid as a second contact."""
 
-    problem_class = _GlenoidProblem
+    problem_class, activation_steps = _GlenoidProblem, ACTIVATION_STEPS
 
     def __init__(self, tendon: str, *args, **kwargs):
         if kwargs.get("surface", "wrap") != "head":
@@ -128,14 +128,6 @@ class GlenoidSheet(FootprintSheet):
         joint = self.m.body("scapphant").pos  # the glenohumeral joint in the scapula frame
         axis = rot @ (np.asarray(MEDIAL_VERTEX_M) - joint)
         return self._contact_surface()[0], axis / np.linalg.norm(axis)
-
-    def _activate(self, x: np.ndarray, activation: float) -> np.ndarray:
-        """`FootprintSheet._activate` in ACTIVATION_STEPS (eighths)."""
-        a0 = 0.0
-        for a in [s * activation for s in ACTIVATION_STEPS]:
-            x, _ = self.problem.step(x, (0.0, a0), (0.0, a))
-            a0 = a
-        return x
 
     def _place(self, pose_deg):
         super()._place(pose_deg)
