@@ -12,8 +12,9 @@ axial plane (version -0.5 +- 3 deg over 65 scapulae, Orthop J Sports Med 2022, d
 tilt (inclination, 8.4 deg on average over 19 donors by 3-D CT, BMC Musculoskelet Disord 2021,
 doi:10.1186/s12891-021-04660-4) is not taken, small beside the glenoid's 37-53 deg of arc. The trigonum
 spinae stands in as the most medial vertex of the MoBL-ARMS parent's scapula surface (scapula.vtp of osim-rl 3.0.11,
-in the scapula body's frame; `--scapula PATH` recomputes it: `pip download osim-rl==3.0.11 --no-deps` as
-models/reference/scripts/humeral_head.py says): a proxy, not a landmark the mesh labels. The glenoid's size on the
+in the scapula body's frame; `--scapula PATH` recomputes it and prints how far the surface lies from the joint centre
+along the axis: `pip download osim-rl==3.0.11 --no-deps` as models/reference/scripts/humeral_head.py says): a proxy,
+not a landmark the mesh labels. The glenoid's size on the
 head: 39 mm high and 29 mm wide (Iannotti JP et al. The normal glenohumeral relationships. J Bone Joint Surg Am
 1992;74(4):491, 140 shoulders), i.e. about 53 deg and 37 deg of arc from its centre on the 24.3 mm head sphere.
 
@@ -39,12 +40,24 @@ GLENOID_MM = (39.0, 29.0)  # height, width (Iannotti et al. 1992)
 TOUCH_M = 0.001
 
 
-def medial_vertex(path: str) -> np.ndarray:
+def scapula_vertices(path: str) -> np.ndarray:
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "models" / "reference" / "scripts"))
     from humeral_head import vertices
 
-    x = vertices(path)
-    return x[np.argmin(x[:, 2])]
+    return vertices(path)
+
+
+def glenoid_face(x: np.ndarray, joint: np.ndarray, axis: np.ndarray) -> list[tuple[int, float, float]]:
+    """The scapula surface's vertices nearer than 45 mm to the joint centre, in rings of 15 deg round the glenoid axis
+    (0-15, 15-30, 30-45, 45-60): (count, nearest, farthest distance from the joint centre in mm) per ring."""
+    rel = x - joint
+    dist = np.linalg.norm(rel, axis=1)
+    angle = np.degrees(np.arccos(np.clip(rel @ axis / dist, -1.0, 1.0)))
+    out = []
+    for lo in (0, 15, 30, 45):
+        d = dist[(angle >= lo) & (angle < lo + 15) & (dist < 0.045)] * 1e3
+        out.append((len(d), float(d.min()) if len(d) else float("nan"), float(d.max()) if len(d) else float("nan")))
+    return out
 
 
 def glenoid_contact(sheet: FootprintSheet, nodes: np.ndarray, axis_scapula: np.ndarray, arcs) -> tuple[float, int, int]:
@@ -86,8 +99,14 @@ def main(argv=None) -> None:
     kind = GlenoidSheet if args.glenoid else FootprintSheet
     sheet = kind(args.tendon, "full", surface=bands.surface(args.tendon), rest="pose")
     joint = sheet.m.body("scapphant").pos  # the glenohumeral joint centre in the scapula frame
-    medial = medial_vertex(args.scapula) if args.scapula else np.asarray(MEDIAL_VERTEX_M)
+    mesh = scapula_vertices(args.scapula) if args.scapula else None
+    medial = mesh[np.argmin(mesh[:, 2])] if mesh is not None else np.asarray(MEDIAL_VERTEX_M)
     axis = (medial - joint) / np.linalg.norm(medial - joint)
+    if mesh is not None:
+        rings = "; ".join(f"{15 * k}-{15 * k + 15} deg: {n} vertices, {lo:.1f}-{hi:.1f} mm"
+                          for k, (n, lo, hi) in enumerate(glenoid_face(mesh, joint, axis)))
+        print(f"the scapula surface within 45 mm of the joint centre, round the glenoid axis: {rings} from the joint "
+              f"centre (the head sphere's radius {HUMERAL_HEAD['radius_m'] * 1e3:.1f} mm)")
     arcs = [np.degrees(np.arcsin(s / 2e3 / HUMERAL_HEAD["radius_m"])) for s in GLENOID_MM]
     print(f"glenoid axis (scapula frame, towards the medial vertex {np.round(medial * 1e3, 1).tolist()} mm): "
           f"{np.round(axis, 3).tolist()}; the glenoid reaches {arcs[0]:.0f} deg (height) and {arcs[1]:.0f} deg (width) "
@@ -116,6 +135,19 @@ def main(argv=None) -> None:
         print(f"{list(pose)} | {np.round(sol['moment_arm_m'] * 1e3, 1).tolist()} | "
               f"{np.round(sheet.mjcf_moment_arm(pose) * 1e3, 1).tolist()} | {sol['tension_N']:.0f} | "
               f"{least:.0f}, {inside} / {touching}")
+    angle, depth = origin_line(sheet, axis)  # at the last pose solved: the origin line is fixed to the scapula
+    print(f"its origin line (the nodes fixed to the proximal bone): {np.round(angle, 0).tolist()} deg from the glenoid "
+          f"axis, {np.round(depth, 1).tolist()} mm from the head's surface")
+
+
+def origin_line(sheet: FootprintSheet, axis_scapula: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The origin nodes' angles from the glenoid axis (deg) and distances from the head sphere (mm)."""
+    humerus, scapula = sheet.m.body("humerus").id, sheet.m.body("scapula").id
+    centre = sheet.d.xpos[humerus] + sheet.d.xmat[humerus].reshape(3, 3) @ np.asarray(HUMERAL_HEAD["centre_m"])
+    rel = sheet.boundary()["origin"] - centre
+    dist = np.linalg.norm(rel, axis=1)
+    axis = sheet.d.xmat[scapula].reshape(3, 3) @ axis_scapula
+    return np.degrees(np.arccos(np.clip(rel @ axis / dist, -1.0, 1.0))), (dist - HUMERAL_HEAD["radius_m"]) * 1e3
 
 
 if __name__ == "__main__":
