@@ -1,6 +1,5 @@
-"""Where a taut band touches the humeral head against where the glenoid is: does ssc's band, where it rolls over the
-head ("ssc on the lesser tuberosity" in docs/fem.md), pass between the head and the glenoid? (docs/fem.md "What
-remains of §2")
+"""Where a taut band touches the humeral head against where the glenoid is: do isp's and ssc's bands, where they roll
+over the head, pass between the head and the glenoid? (docs/fem.md "Where isp's and ssc's bands roll")
 
     .venv/bin/python benchmarks/band_glenoid.py [--tendon T] [--line COORD A B START STOP STEP] [--at P E R ...]
         [--scapula scapula.vtp] [--glenoid]                                                  (a second a pose)
@@ -14,14 +13,16 @@ doi:10.1186/s12891-021-04660-4) is not taken, small beside the glenoid's 37-53 d
 spinae stands in as the most medial vertex of the MoBL-ARMS parent's scapula surface (scapula.vtp of osim-rl 3.0.11,
 in the scapula body's frame; `--scapula PATH` recomputes it and prints how far the surface lies from the joint centre
 along the axis: `pip download osim-rl==3.0.11 --no-deps` as models/reference/scripts/humeral_head.py says): a proxy,
-not a landmark the mesh labels. The glenoid's size on the
-head: 39 mm high and 29 mm wide (Iannotti JP et al. The normal glenohumeral relationships. J Bone Joint Surg Am
-1992;74(4):491, 140 shoulders), i.e. about 53 deg and 37 deg of arc from its centre on the 24.3 mm head sphere.
+not a landmark the mesh labels. The glenoid's size on the head: 39 mm high and 29 mm wide (Iannotti JP et al. The
+normal glenohumeral relationships. J Bone Joint Surg Am 1992;74(4):491, 140 shoulders), i.e. about 53 deg and 37 deg
+of arc from its centre on the 24.3 mm head sphere.
 
 Each pose: the band solved as its table solves it (`FootprintSheet`, the table's contact surface, rest="pose", the
 ramp at a = 1), its moment arms and the MJCF path's (plane, elevation, rotation; mm), its tension, and of its nodes
 touching the head sphere (within 1 mm) the least angle from the glenoid axis (deg, from the head's centre) and how
 many lie inside the glenoid's outline (`glenoid_contact`): there the band lies between the head and the glenoid.
+Last, where the band's origin line lies against the glenoid axis. With --glenoid the band has the glenoid as a second
+contact (`footprint_glenoid.GlenoidSheet`, a study option).
 """
 from __future__ import annotations
 
@@ -33,10 +34,9 @@ import numpy as np
 
 from shoulder_bench.authoring.fem import bands
 from shoulder_bench.authoring.fem.footprint import HUMERAL_HEAD, FootprintSheet
-from shoulder_bench.authoring.fem.footprint_glenoid import MEDIAL_VERTEX_M, GlenoidSheet
+from shoulder_bench.authoring.fem.footprint_glenoid import GLENOID_MM, MEDIAL_VERTEX_M, GlenoidSheet
 from shoulder_bench.authoring.fem.solver import NoConvergence
 
-GLENOID_MM = (39.0, 29.0)  # height, width (Iannotti et al. 1992)
 TOUCH_M = 0.001
 
 
@@ -135,19 +135,18 @@ def main(argv=None) -> None:
         print(f"{list(pose)} | {np.round(sol['moment_arm_m'] * 1e3, 1).tolist()} | "
               f"{np.round(sheet.mjcf_moment_arm(pose) * 1e3, 1).tolist()} | {sol['tension_N']:.0f} | "
               f"{least:.0f}, {inside} / {touching}")
-    angle, depth = origin_line(sheet, axis)  # at the last pose solved: the origin line is fixed to the scapula
+    angle, dist = origin_line(sheet, joint, axis)
     print(f"its origin line (the nodes fixed to the proximal bone): {np.round(angle, 0).tolist()} deg from the glenoid "
-          f"axis, {np.round(depth, 1).tolist()} mm from the head's surface")
+          f"axis, {np.round(dist, 1).tolist()} mm from the joint centre")
 
 
-def origin_line(sheet: FootprintSheet, axis_scapula: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The origin nodes' angles from the glenoid axis (deg) and distances from the head sphere (mm)."""
-    humerus, scapula = sheet.m.body("humerus").id, sheet.m.body("scapula").id
-    centre = sheet.d.xpos[humerus] + sheet.d.xmat[humerus].reshape(3, 3) @ np.asarray(HUMERAL_HEAD["centre_m"])
-    rel = sheet.boundary()["origin"] - centre
-    dist = np.linalg.norm(rel, axis=1)
-    axis = sheet.d.xmat[scapula].reshape(3, 3) @ axis_scapula
-    return np.degrees(np.arccos(np.clip(rel @ axis / dist, -1.0, 1.0))), (dist - HUMERAL_HEAD["radius_m"]) * 1e3
+def origin_line(sheet: FootprintSheet, joint: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The origin nodes' angles from the glenoid axis (deg) and distances from the joint centre (mm), in the scapula
+    frame (they are fixed to the scapula: the same at every pose)."""
+    scapula = sheet.m.body("scapula").id
+    local = (sheet.boundary()["origin"] - sheet.d.xpos[scapula]) @ sheet.d.xmat[scapula].reshape(3, 3) - joint
+    dist = np.linalg.norm(local, axis=1)
+    return np.degrees(np.arccos(np.clip(local @ axis / dist, -1.0, 1.0))), dist * 1e3
 
 
 if __name__ == "__main__":
