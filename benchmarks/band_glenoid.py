@@ -34,7 +34,7 @@ import numpy as np
 
 from shoulder_bench.authoring.fem import bands
 from shoulder_bench.authoring.fem.footprint import HUMERAL_HEAD, FootprintSheet
-from shoulder_bench.authoring.fem.footprint_glenoid import GLENOID_MM, MEDIAL_VERTEX_M, GlenoidSheet
+from shoulder_bench.authoring.fem.footprint_glenoid import HALF_ARCS_DEG, MEDIAL_VERTEX_M, GlenoidSheet, glenoid_axis
 from shoulder_bench.authoring.fem.solver import NoConvergence
 
 TOUCH_M = 0.001
@@ -101,13 +101,13 @@ def main(argv=None) -> None:
     joint = sheet.m.body("scapphant").pos  # the glenohumeral joint centre in the scapula frame
     mesh = scapula_vertices(args.scapula) if args.scapula else None
     medial = mesh[np.argmin(mesh[:, 2])] if mesh is not None else np.asarray(MEDIAL_VERTEX_M)
-    axis = (medial - joint) / np.linalg.norm(medial - joint)
+    axis = glenoid_axis(sheet.m, medial)
     if mesh is not None:
         rings = "; ".join(f"{15 * k}-{15 * k + 15} deg: {n} vertices, {lo:.1f}-{hi:.1f} mm"
                           for k, (n, lo, hi) in enumerate(glenoid_face(mesh, joint, axis)))
         print(f"the scapula surface within 45 mm of the joint centre, round the glenoid axis: {rings} from the joint "
               f"centre (the head sphere's radius {HUMERAL_HEAD['radius_m'] * 1e3:.1f} mm)")
-    arcs = [np.degrees(np.arcsin(s / 2e3 / HUMERAL_HEAD["radius_m"])) for s in GLENOID_MM]
+    arcs = HALF_ARCS_DEG
     print(f"glenoid axis (scapula frame, towards the medial vertex {np.round(medial * 1e3, 1).tolist()} mm): "
           f"{np.round(axis, 3).tolist()}; the glenoid reaches {arcs[0]:.0f} deg (height) and {arcs[1]:.0f} deg (width) "
           "from its centre on the head")

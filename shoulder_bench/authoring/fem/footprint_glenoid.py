@@ -36,10 +36,18 @@ from shoulder_bench.authoring.fem.solver import MuscleProblem
 
 MEDIAL_VERTEX_M = (-0.095237, -0.056267, -0.105782)  # scapula.vtp's most medial vertex (least z), scapula frame
 GLENOID_MM = (39.0, 29.0)  # height, width (Iannotti et al. 1992)
-HALF_ARC_DEG = float(np.mean([np.degrees(np.arcsin(s / 2e3 / HUMERAL_HEAD["radius_m"])) for s in GLENOID_MM]))
+HALF_ARCS_DEG = tuple(float(np.degrees(np.arcsin(s / 2e3 / HUMERAL_HEAD["radius_m"]))) for s in GLENOID_MM)
+HALF_ARC_DEG = float(np.mean(HALF_ARCS_DEG))  # the contact's circle: the mean of the height's and width's half-arcs
 SOCKET_M = 0.005
 SMOOTHING_M = 0.002
 ACTIVATION_STEPS = tuple(np.arange(1, 9) / 8.0)  # the ramp in eighths (in quarters, as footprint's, Newton stalls)
+
+
+def glenoid_axis(m, medial=MEDIAL_VERTEX_M) -> np.ndarray:
+    """The unit axis from the glenohumeral joint centre of model `m` towards `medial` (the trigonum spinae's stand-in),
+    scapula frame."""
+    axis = np.asarray(medial, dtype=float) - m.body("scapphant").pos  # the joint centre in the scapula frame
+    return axis / np.linalg.norm(axis)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -125,9 +133,7 @@ class GlenoidSheet(FootprintSheet):
     def glenoid(self) -> tuple[np.ndarray, np.ndarray]:
         """(the head's centre, the unit axis from it towards the glenoid's centre), world, at the current pose."""
         rot = self.d.xmat[self.m.body("scapula").id].reshape(3, 3)
-        joint = self.m.body("scapphant").pos  # the glenohumeral joint in the scapula frame
-        axis = rot @ (np.asarray(MEDIAL_VERTEX_M) - joint)
-        return self._contact_surface()[0], axis / np.linalg.norm(axis)
+        return self._contact_surface()[0], rot @ glenoid_axis(self.m)
 
     def _place(self, pose_deg):
         super()._place(pose_deg)
