@@ -22,7 +22,11 @@ ramp at a = 1), its moment arms and the MJCF path's (plane, elevation, rotation;
 touching the head sphere (within 1 mm) the least angle from the glenoid axis (deg, from the head's centre) and how
 many lie inside the glenoid's outline (`glenoid_contact`): there the band lies between the head and the glenoid.
 Last, where the band's origin line lies against the glenoid axis. With --glenoid the band has the glenoid as a second
-contact (`footprint_glenoid.GlenoidSheet`, a study option).
+contact (`footprint_glenoid.GlenoidSheet`, a study option). With --scapula, each pose also counts the band's nodes
+inside the parent's scapula surface (`inside_bone`: its generalised winding number above 1/2, Jacobson, Kavan and
+Sorkine-Hornung 2013, ACM TOG 32(4):33, which needs no closed mesh; the parent's is not closed) and the rows (from the
+origin, 0) and fibres they lie on, and the deepest one's distance to the surface: where the band passes through the
+bone the solve leaves open.
 """
 from __future__ import annotations
 
@@ -31,6 +35,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import trimesh
 
 from shoulder_bench.authoring.fem import bands
 from shoulder_bench.authoring.fem.footprint import HUMERAL_HEAD, FootprintSheet
@@ -45,6 +50,27 @@ def scapula_vertices(path: str) -> np.ndarray:
     from humeral_head import vertices
 
     return vertices(path)
+
+
+def scapula_triangles(path: str) -> np.ndarray:
+    """The surface's triangles (T, 3, 3), in the scapula body's frame (m)."""
+    x = scapula_vertices(path)  # puts models/reference/scripts on the path
+    from humeral_cap import triangles
+
+    return triangles(path, x)
+
+
+def inside_bone(tri: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Whether each point (P, 3) lies inside the surface `tri`: its generalised winding number (the triangles' signed
+    solid angles at the point over 4 pi; van Oosterom and Strackee's formula) above 1/2 in magnitude."""
+    out = np.empty(len(points), bool)
+    for i, q in enumerate(points):
+        a, b, c = (tri[:, k] - q for k in range(3))
+        la, lb, lc = (np.linalg.norm(v, axis=1) for v in (a, b, c))
+        den = (la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", b, c) * la
+               + np.einsum("ij,ij->i", c, a) * lb)
+        out[i] = abs(2.0 * np.arctan2(np.einsum("ij,ij->i", a, np.cross(b, c)), den).sum()) > 2.0 * np.pi
+    return out
 
 
 def glenoid_face(x: np.ndarray, joint: np.ndarray, axis: np.ndarray) -> list[tuple[int, float, float]]:
@@ -100,6 +126,7 @@ def main(argv=None) -> None:
     sheet = kind(args.tendon, "full", surface=bands.surface(args.tendon), rest="pose")
     joint = sheet.m.body("scapphant").pos  # the glenohumeral joint centre in the scapula frame
     mesh = scapula_vertices(args.scapula) if args.scapula else None
+    bone = scapula_triangles(args.scapula) if args.scapula else None
     medial = mesh[np.argmin(mesh[:, 2])] if mesh is not None else np.asarray(MEDIAL_VERTEX_M)
     axis = glenoid_axis(sheet.m, medial)
     if mesh is not None:
@@ -134,10 +161,35 @@ def main(argv=None) -> None:
         least, inside, touching = glenoid_contact(sheet, sol["nodes"], axis, arcs)
         print(f"{list(pose)} | {np.round(sol['moment_arm_m'] * 1e3, 1).tolist()} | "
               f"{np.round(sheet.mjcf_moment_arm(pose) * 1e3, 1).tolist()} | {sol['tension_N']:.0f} | "
-              f"{least:.0f}, {inside} / {touching}")
+              f"{least:.0f}, {inside} / {touching}{'' if bone is None else in_bone(sheet, sol['nodes'], bone)}")
     angle, dist = origin_line(sheet, joint, axis)
     print(f"its origin line (the nodes fixed to the proximal bone): {np.round(angle, 0).tolist()} deg from the glenoid "
           f"axis, {np.round(dist, 1).tolist()} mm from the joint centre")
+    if bone is not None:
+        scapula = sheet.m.body("scapula").id
+        local = (sheet.boundary()["origin"] - sheet.d.xpos[scapula]) @ sheet.d.xmat[scapula].reshape(3, 3)
+        print(f"  against the scapula surface: {int(inside_bone(bone, local).sum())} of {len(local)} inside; "
+              f"{np.round(surface_distance(bone, local) * 1e3, 1).tolist()} mm from it")
+
+
+def surface_distance(tri: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Each point's distance to the surface `tri`'s nearest point (m)."""
+    return np.array([np.linalg.norm(trimesh.triangles.closest_point(tri, np.repeat(q[None], len(tri), 0)) - q,
+                                    axis=1).min() for q in points])
+
+
+def in_bone(sheet: FootprintSheet, nodes: np.ndarray, tri: np.ndarray) -> str:
+    """' | inside the scapula: N nodes, rows R0-R1, fibres F0-F1, at most D mm deep' for the solved band's nodes (rows
+    from the origin; the depth: the distance to the surface's nearest point)."""
+    scapula = sheet.m.body("scapula").id
+    local = (nodes.reshape(-1, 3) - sheet.d.xpos[scapula]) @ sheet.d.xmat[scapula].reshape(3, 3)
+    inside = np.flatnonzero(inside_bone(tri, local))
+    if not len(inside):
+        return " | inside the scapula: 0 nodes"
+    rows, fibres = np.divmod(inside, sheet.nt)  # nodes: (ns nt, 3), fibre fastest
+    depth = surface_distance(tri, local[inside]).max()
+    return (f" | inside the scapula: {len(inside)} nodes, rows {rows.min()}-{rows.max()} of {sheet.ns}, fibres "
+            f"{fibres.min()}-{fibres.max()} of {sheet.nt}, at most {depth * 1e3:.1f} mm deep")
 
 
 def origin_line(sheet: FootprintSheet, joint: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
