@@ -61,6 +61,12 @@ def test_the_glenoid_keeps_the_band_out_of_its_place_on_the_head_and_pushes_the_
     assert len(deficit) == 0 or deficit.max() < 1.0
     loads = sheet._contact_loads(sol["nodes"], None)
     assert any(which == "scapula" for which, _, _ in loads)
+    # the two contacts' forces apart: the head's and the glenoid's, which together make the sum the solve balances
+    head = sum(f for which, _, f in loads if which != "scapula")
+    socket = sum(f for which, _, f in loads if which == "scapula")
+    assert sol["glenoid_N"] == pytest.approx(np.linalg.norm(socket), rel=1e-9) and sol["glenoid_N"] > 1.0
+    assert sol["contact_N"] == pytest.approx(np.linalg.norm(head), rel=1e-9)
+    assert sol["contact_N"] != pytest.approx(np.linalg.norm(head + socket), rel=1e-3)
 
 
 def test_the_glenoid_is_a_contact_beside_the_head_only():

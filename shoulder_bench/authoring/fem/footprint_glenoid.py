@@ -165,7 +165,18 @@ class GlenoidSheet(FootprintSheet):
 
     def _contact_loads(self, x: np.ndarray, gc: np.ndarray) -> list:
         """The head's contact pushes the humerus, the glenoid's the scapula."""
-        head = MuscleProblem._contact(self.problem, x, blocks=False)[1].reshape(-1, 3)
+        head, socket = self._contact_parts(x)
         loads = super()._contact_loads(x, head)
-        socket = self.problem.glenoid_contact(x, blocks=False)[1].reshape(-1, 3)
         return loads + [("scapula", i, socket[i]) for i in self.problem.free if np.any(socket[i] != 0.0)]
+
+    def _contact_parts(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The contact gradients (N, 3) of the head and of the glenoid at the nodes `x`."""
+        head = MuscleProblem._contact(self.problem, x, blocks=False)[1].reshape(-1, 3)
+        return head, self.problem.glenoid_contact(x, blocks=False)[1].reshape(-1, 3)
+
+    def reduce(self, x: np.ndarray, activation: float) -> dict:
+        """`FootprintSheet.reduce`, with contact_N the head's contact force alone and glenoid_N the glenoid's (N)."""
+        out = super().reduce(x, activation)
+        head, socket = (part[self.problem.free].sum(0) for part in self._contact_parts(x))
+        out["contact_N"], out["glenoid_N"] = float(np.linalg.norm(head)), float(np.linalg.norm(socket))
+        return out
