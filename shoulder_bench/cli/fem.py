@@ -19,6 +19,8 @@ def _build(args) -> int:
     if args.variant and not args.full:
         raise SystemExit("shoulder-bench fem build: error: --variant is for --full (the v2 arm's variant tables: "
                          "python -m shoulder_bench.authoring.fem.v2 --variant ld_transfer)")
+    if args.fibres:
+        return _build_fibres(args)
     if args.bands:
         return _build_bands(args)
     if args.full:
@@ -97,10 +99,43 @@ def _build_bands(args) -> int:
     return 0
 
 
+def _build_fibres(args) -> int:
+    from shoulder_bench.authoring.fem import band_fibres, bands
+
+    if args.muscle or args.full or args.bands or args.coarse:
+        raise SystemExit("shoulder-bench fem build: error: --fibres builds the taut bands' fibre tables on the full "
+                         "sheets: give --tendon, --jobs, --out only")
+    t0 = time.perf_counter()
+    try:
+        metas = band_fibres.build(tuple(args.tendon) if args.tendon else bands.FOOTPRINT_TENDONS,
+                                  out=args.out, jobs=args.jobs)
+    except (ValueError, RuntimeError) as exc:
+        raise SystemExit(f"shoulder-bench fem build: error: {exc}") from None
+    for t, m in metas.items():
+        how = "up to date, nothing to do" if m["cached"] else "solved"
+        print(f"{t}: fibre table, {how} ({m['build_seconds']:.1f} s to solve; largest departure from the mean fibre "
+              f"{m['largest_departure_mm']:.2f} mm; {len(m['unsolved_poses_deg'])} unsolved poses)")
+    print(f"total {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
 def _verify(args) -> int:
     if args.variant and not args.full:
         raise SystemExit("shoulder-bench fem verify: error: --variant is for --full (the v2 arm's variant tables: "
                          "python -m shoulder_bench.authoring.fem.v2 --variant ld_transfer)")
+    if args.fibres:
+        from shoulder_bench.authoring.fem import band_fibres, bands
+
+        if args.bands or args.full or args.activation or args.interpolation != "linear":
+            raise SystemExit("shoulder-bench fem verify: error: --fibres goes with --tendon, --held-out, --jobs, "
+                             "--tables only")
+        if (args.held_out is not None and args.held_out < 1) or args.jobs < 1:
+            raise SystemExit("shoulder-bench fem verify: error: --held-out and --jobs must be >= 1")
+        try:
+            return band_fibres.verify(tuple(args.tendon) if args.tendon else bands.FOOTPRINT_TENDONS,
+                                      args.tables, args.held_out, args.jobs)
+        except (ValueError, RuntimeError) as exc:
+            raise SystemExit(f"shoulder-bench fem verify: error: {exc}") from None
     if args.bands:
         from shoulder_bench.authoring.fem import band_verify, bands
 
@@ -186,8 +221,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     b.add_argument("--bands", action="store_true", help="the footprint sheets' line-of-action tables (taut bands) of "
                    "ssp, isp, tmi, tma, pec1, pec2, pec3, dpo, dan, ld1-3 over the 3-DOF pose grid "
                    "(models/muscles_full/<t>_band.npz)")
+    b.add_argument("--fibres", action="store_true", help="the taut bands' fibre tables: each fibre's length change "
+                   "less the mean fibre's over the tasks' pose grid (models/muscles_full/<t>_fibres.npz; a study, "
+                   "not applied in MuJoCo yet)")
     b.add_argument("--jobs", type=int, default=1, help="with --full: solve this many tendons at once (processes); "
-                   "with --bands: this many processes solve each tendon's poses")
+                   "with --bands or --fibres: this many processes solve each tendon's poses")
     b.add_argument("--variant", choices=("ld_transfer",), default=None, help="with --full: a rerouted geometry's "
                    "tendons (ld_transfer: ld1-3 on models/shoulder_full_task_ld_transfer.xml, re-tensioned, into "
                    "models/muscles_full_ld_transfer; docs/surgery.md)")
@@ -205,7 +243,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "tables (ld_transfer: ld1-3 in models/muscles_full_ld_transfer) on its model")
     v.add_argument("--bands", action="store_true", help="the band tables (default folder models/muscles_full): the "
                    "taut bands re-solved at held-out poses against the tables")
-    v.add_argument("--tendon", action="append", help="with --bands: only this tendon (repeatable)")
+    v.add_argument("--fibres", action="store_true", help="the fibre tables: the taut bands re-solved at the tasks' "
+                   "grid's cell centres, the fibre force from the tables against theirs at a = 1 and 0 (within 2 %% "
+                   "of F0)")
+    v.add_argument("--tendon", action="append", help="with --bands or --fibres: only this tendon (repeatable)")
     v.add_argument("--held-out", type=int, default=None, metavar="N",
                    help="with --bands: N held-out poses per tendon drawn with a fixed seed (default: all of its "
                    "table grid's, 588 on the tasks' grid; 0: none, only the check of what MuJoCo applies)")

@@ -47,12 +47,20 @@ def _step(sheet: FootprintSheet, pose_deg, nodes: np.ndarray, a_from: float, a_t
         return _step(sheet, pose_deg, half["nodes"], mid, a_to, halvings - 1)
 
 
+def fibre_lengths(sheet: FootprintSheet, nodes: np.ndarray) -> np.ndarray:
+    """(nt,) m: each fibre's length in the sheet `nodes` ((ns nt, 3), fibre fastest): the polyline along it from the
+    origin line to the insertion line."""
+    x = np.asarray(nodes).reshape(sheet.ns, sheet.nt, 3)
+    return np.linalg.norm(np.diff(x, axis=0), axis=2).sum(axis=0)
+
+
 def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None = None, progress=None,
             surface: str = "wrap", pose: full_arm.Pose | None = None, rest: str = "reference",
             offsets_deg=None, activations=()) -> dict:
     """FEM vs MJCF moment arms of `tendon` at `poses_deg` (P, 3): arrays (P, 3) in m (NaN where the sheet found no
-    equilibrium: `converged`), the tensions and contact forces (N), the central fibre's stretch (its initial shape's
-    length over the reference's), its F0 (N). progress: called after each pose. surface: the sheet's contact surface
+    equilibrium: `converged`), the tensions and contact forces (N), each fibre's length in the solved sheet ("fibre_m",
+    (P, nt) m, `fibre_lengths`), the central fibre's stretch (its initial shape's length over the reference's), its
+    F0 (N). progress: called after each pose. surface: the sheet's contact surface
     (`SURFACES`). pose: the model posed (default: the task model, compiled anew). rest: the sheet's stress-free
     state (`RESTS`). offsets_deg (K, 3): each pose's least-energy equilibrium from those starts
     (`FootprintSheet.solve_least_energy`) instead of the ramp's. activations (levels below 1, descending): the band
@@ -65,7 +73,8 @@ def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None =
     out = {"fem_m": np.full((len(poses), 3), np.nan), "mjcf_m": np.zeros((len(poses), 3)),
            "tension_N": np.full(len(poses), np.nan), "contact_N": np.full(len(poses), np.nan),
            "converged": np.zeros(len(poses), bool), "stretch": np.zeros(len(poses)),
-           "fem_m_at": np.full((len(poses), len(activations), 3), np.nan)}
+           "fem_m_at": np.full((len(poses), len(activations), 3), np.nan),
+           "fibre_m": np.full((len(poses), sheet.nt), np.nan)}
     for k, p in enumerate(poses):
         out["mjcf_m"][k] = sheet.mjcf_moment_arm(p)
         sheet._set(p)
@@ -77,6 +86,7 @@ def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None =
         if s is not None:
             out["fem_m"][k], out["tension_N"][k] = s["moment_arm_m"], s["tension_N"]
             out["contact_N"][k], out["converged"][k] = s["contact_N"], True
+            out["fibre_m"][k] = fibre_lengths(sheet, s["nodes"])
             if len(activations):
                 out["fem_m_at"][k] = continued(sheet, p, s["nodes"], activations)
         if progress is not None:
