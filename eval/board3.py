@@ -42,7 +42,7 @@ class TorqueLaw3:
 
     def torque(self, angle, velocity, activation) -> np.ndarray:
         L, r = self.law.geometry(self.pose, np.degrees(angle), activation)
-        f = self.law.force(L, np.zeros_like(L), activation)  # isometric: the lengthening rate 0
+        f = self.law.force(L, np.zeros_like(L), activation, self.law.departures(np.degrees(angle)))  # isometric
         tau = f[..., None] * r  # (F, tendons, 3)
         return np.stack([tau[:, list(self.law.muscle_of == k)].sum(axis=1) for k in range(len(self.muscles))], axis=1)
 

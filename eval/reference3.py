@@ -55,7 +55,8 @@ class ReferenceController3:
         v = self.law.lengthening_rates(q_deg, dq, d.actuator_velocity[ids], act)[0]  # the bands' along their line
         lo = np.clip(act - protocol.ACTION_LIMIT, 0.0, 1.0)
         hi = np.clip(act + protocol.ACTION_LIMIT, 0.0, 1.0)
-        return self.statics.distribute(L[0], r[0], v, tau, act, lo, hi)
+        fibres = self.law.departures(q_deg)  # line_of_action="band_fibres": each band's fibres at their lengths
+        return self.statics.distribute(L[0], r[0], v, tau, act, lo, hi, None if fibres is None else fibres[0])
 
     def __call__(self, obs: torch.Tensor) -> torch.Tensor:
         x = obs.detach().cpu().numpy().astype(float)

@@ -30,6 +30,11 @@ term tabled on the tasks' grid at a few activation levels and read trilinearly i
 the lowest level: that level's; a = the actuator's ctrl, at which its force is computed). The other tendons'
 correction does not depend on a.
 
+With line_of_action="band_fibres" the force is also the band's fibres', not one length's: F_t = mean_i F(L_MT(q) +
+D_t(q) + d_ti(q), a, v), d_ti fibre i's length change less the band's mean fibre's (`<tendon>_fibres.npz`,
+`fem.band_fibres`, on the tasks' grid, read trilinearly; `fibre_law` below is the one implementation the compiled
+callbacks inline, `TendonLaw.gain_bias_one` the Python one's).
+
 Table format (`models/muscles_full/<tendon>_band.npz`, written by `shoulder-bench fem build --bands`):
   plane_deg (P,), elevation_deg (E,), rotation_deg (R,)   the grid, uniform and ascending (the tasks' pose grid or
                                                            one nesting it, `fem.bands.REFINE`)
@@ -50,11 +55,11 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from shoulder_bench.muscle import law_cell
+from shoulder_bench.muscle import law_cell, law_point
 
 # the tendons whose footprint sheet is resolved (fem.bands)
 BAND_TENDONS = ("ssp", "isp", "ssc", "tmi", "tma", "pec1", "pec2", "pec3", "dpo", "dan", "ld1", "ld2", "ld3")
-LINES = ("mjcf", "band")  # the 3-DOF tasks' `line_of_action` option
+LINES = ("mjcf", "band", "band_fibres")  # the 3-DOF tasks' `line_of_action` option
 AXES = ("plane_deg", "elevation_deg", "rotation_deg")
 REBUILD = "shoulder-bench fem build --bands"
 # where a band's length is taken to be its MJCF path's (`band_length`): the footprint sheets' reference pose
@@ -70,6 +75,27 @@ def table_path(tendon: str, folder: Path | None = None) -> Path:
 
 def levels_path(tendon: str, folder: Path | None = None) -> Path:
     return table_path(tendon, folder).with_name(f"{tendon}_band_levels.npz")
+
+
+def fibres_path(tendon: str, folder: Path | None = None) -> Path:
+    return table_path(tendon, folder).with_name(f"{tendon}_fibres.npz")
+
+
+def read_fibres(path: Path, tendon: str) -> tuple[dict, dict]:
+    """A fibre table's arrays (the axes, departure_m (P, E, R, nt)) and meta; errors name the file and the command
+    that builds it."""
+    fix = f"build it with `shoulder-bench fem build --fibres --tendon {tendon}`"
+    try:
+        with np.load(path) as z:
+            arrays = {k: z[k] for k in (*AXES, "departure_m")}
+            meta = json.loads(str(z["meta"]))
+    except FileNotFoundError:
+        raise ValueError(f"no fibre table {path}: {fix}") from None
+    except (OSError, KeyError, ValueError) as exc:
+        raise ValueError(f"unreadable fibre table {path} ({exc}): {fix}") from None
+    if meta.get("tendon") != tendon:
+        raise ValueError(f"fibre table {path} is for {meta.get('tendon')!r}, not {tendon!r}: {fix}")
+    return arrays, meta
 
 
 def read_levels(path: Path, band_meta: dict) -> tuple[dict, dict]:
@@ -185,15 +211,17 @@ class BandLines:
         self.lengths = np.ascontiguousarray(lengths, dtype=np.float64)
         if self.lengths.shape != self.table.shape[:1] + self.table.shape[2:5]:
             raise ValueError(f"band lengths of shape {self.lengths.shape}, expected {self.table.shape[:1] + shape[1:]}")
+        self.fibres = None  # (n, 1, P, E, R, nt) m: each band's fibres' departures from its mean fibre ("band_fibres")
 
     @classmethod
-    def load(cls, tendons=BAND_TENDONS, folder: Path | None = None) -> BandLines:
+    def load(cls, tendons=BAND_TENDONS, folder: Path | None = None, fibres: bool = False) -> BandLines:
         """The tables `<folder>/<tendon>_band.npz` (default models/muscles_full), read on the coarsest grid that
         nests all of theirs (per coordinate the same range, its number of steps the least common multiple of theirs):
         each resampled there linearly along each coordinate in turn, which leaves its trilinear reading exactly as it
         was (a trilinear function restricted to a sub-cell is trilinear). Tables over different ranges are refused.
         With the level tables beside them (`levels_path`; all at the same levels): each level's correction is the
-        band table's plus that level's arms less its a = 1 arms, read the same way."""
+        band table's plus that level's arms less its a = 1 arms, read the same way. fibres: also each band's fibre
+        table (`fibres_path`; on the tasks' grid, which the tables' grid nests), read the same way."""
         tendons = tuple(tendons)
         unknown = [t for t in tendons if t not in BAND_TENDONS]
         if unknown:
@@ -225,7 +253,17 @@ class BandLines:
                 at = [_resample(arms - lv["moment_arm_m"][0], [lv[k] for k in AXES], axes)
                       for arms in lv["moment_arm_m"]]
             out.append(np.stack([c + d for d in at[::-1]]))  # ascending in activation
-        return cls(tendons, axes, np.stack(out), np.stack(lengths), descending[::-1])
+        lines = cls(tendons, axes, np.stack(out), np.stack(lengths), descending[::-1])
+        if fibres:
+            read = [read_fibres(fibres_path(t, folder), t)[0] for t in tendons]
+            if len({f["departure_m"].shape[-1] for f in read}) != 1 or \
+                    not all(_nests(ax, f[k]) for f in read for k, ax in zip(AXES, axes)):
+                raise ValueError(f"fibre tables of {', '.join(tendons)} on other grids or with other fibre counts than "
+                                 "each other's or the band tables'; rebuild them with `shoulder-bench fem build "
+                                 "--fibres`")
+            lines.fibres = np.ascontiguousarray(np.stack(
+                [_resample(f["departure_m"], [f[k] for k in AXES], axes) for f in read])[:, None])
+        return lines
 
     def correction(self, poses_deg, activation=1.0) -> np.ndarray:
         """(P, n, 3) m: each tendon's band moment arms less its MJCF ones at `poses_deg` (P, 3) and `activation` (a
@@ -250,6 +288,17 @@ class BandLines:
         _lengthenings(self.lengths[:, None, ..., None], self.table, self.grid, self.shape, q,
                       np.ascontiguousarray(v), a, dl, dv)
         return dl, dv
+
+
+    def departures(self, poses_deg) -> np.ndarray:
+        """(P, n, nt) m: each tendon's band's fibres' departures from its mean fibre at `poses_deg` (P, 3), read as
+        the callbacks read them (`fibre_law`). Only for lines loaded with fibres."""
+        if self.fibres is None:
+            raise ValueError("these band lines have no fibre tables (BandLines.load(..., fibres=True))")
+        q = np.radians(np.atleast_2d(np.asarray(poses_deg, dtype=float)))
+        out = np.empty((len(q), len(self.tendons), self.fibres.shape[-1]))
+        _departures(self.fibres, self.grid, self.shape, q, out)
+        return out
 
 
 def _nests(fine: np.ndarray, coarse: np.ndarray) -> bool:
@@ -334,3 +383,31 @@ def _lengthenings(lengths, table, grid, shape, q, v, a, dl, dv):
         for b in range(table.shape[0]):
             dl[p, b], dv[p, b] = band_lengthening(lengths, table, b, a[p, b], q[p, 0], q[p, 1], q[p, 2], v[p, 0],
                                                   v[p, 1], v[p, 2], grid, shape)
+
+
+@numba.njit(cache=True, nogil=True)
+def _departures(fibres, grid, shape, q, out):
+    for p in range(q.shape[0]):
+        i0, w0, i1, w1, i2, w2 = band_cells(q[p, 0], q[p, 1], q[p, 2], grid, shape)
+        for b in range(fibres.shape[0]):
+            for k in range(fibres.shape[5]):
+                out[p, b, k] = band_point(fibres, b, k, 0, 0.0, i0, w0, i1, w1, i2, w2)
+
+
+@numba.njit(inline="always")
+def fibre_law(fibres, b, q0, q1, q2, grid, shape, flat, arm, levels, n, c, length, x0, inv_dx, kmax, a, velocity,
+              neg_inv_vscale):
+    """Column c's law (`muscle.law_point`: per unit activation, passive, FV factor) as the mean of band b's fibres,
+    each at `length` (the band's) plus its departure (`fibres`, (n, 1, P, E, R, nt), trilinear at the pose (q0, q1,
+    q2) rad by `band_point`), at the band's lengthening rate `velocity`. The one implementation the compiled
+    callbacks inline; `TendonLaw.gain_bias_one` does the same arithmetic with the departures `BandLines.departures`
+    reads."""
+    i0, w0, i1, w1, i2, w2 = band_cells(q0, q1, q2, grid, shape)
+    nt = fibres.shape[5]
+    per_unit, passive, fv = 0.0, 0.0, 1.0
+    for k in range(nt):
+        i, w = law_cell(length + band_point(fibres, b, k, 0, 0.0, i0, w0, i1, w1, i2, w2), x0, inv_dx, kmax)
+        _, pu, ps, fv = law_point(flat, arm, levels, n, c, i, w, a, velocity, neg_inv_vscale)
+        per_unit += pu
+        passive += ps
+    return per_unit / nt, passive / nt, fv

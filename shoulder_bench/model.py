@@ -142,13 +142,17 @@ def _gain(m, d, i):
             gear = np.asarray(m.actuator_gear)[e.acts, 0]  # gear x the tendon's; gear: 1, or a strength draw)
             gear = np.where(gear != 0.0, gear, 1.0)
             length, speed = s.length[e.acts] / gear, s.speed[e.acts] / gear
+            departures = None
             if e.band is not None:  # the band tendons: their band's length and lengthening rate (band_lines)
                 cols, qadr, dadr = e.band
                 a = s.ctrl[e.order][e.law.muscle_of[cols]]
                 dl, dv = e.law.lines.lengthening(np.degrees(s.qpos[qadr]), s.qvel[dadr], a)
                 length[cols] += dl[0]
                 speed[cols] += dv[0]
-            gain, bias = e.law.gain_bias_one(length, speed, s.ctrl[e.order])
+                if e.law.lines.fibres is not None:  # line_of_action="band_fibres": the band's fibres, each its length
+                    departures = np.zeros((e.law.lines.fibres.shape[-1], len(length)))
+                    departures[:, cols] = e.law.lines.departures(np.degrees(s.qpos[qadr]))[0].T
+            gain, bias = e.law.gain_bias_one(length, speed, s.ctrl[e.order], departures)
         else:
             gain, bias = e.law.gain_bias_one(s.qpos[e.qadr], s.qvel[e.vadr], s.ctrl[e.order])
         s.gain = [-x for x in gain.tolist()]  # negative: muscles pull, shortening their tendon

@@ -31,7 +31,8 @@ and mjData.qfrc_passive, and the law's row points (word BAND) to a band block: t
 grid, the table, the band lengths, the coordinates' addresses and the nu of the model it was attached to (another nu:
 nothing added). For such a law the actuator callbacks read a band tendon's force at its band's length and lengthening
 rate (`band_lines.band_lengthening`: the actuator length plus the band's length less the MJCF path's, read from the
-coordinates' qpos, and the rate less the MJCF path's from their qvel).
+coordinates' qpos, and the rate less the MJCF path's from their qvel), and with fibre tables in the block
+(line_of_action="band_fibres") the law as the mean of the band's fibres' (`band_lines.fibre_law`).
 
 The registry: `_ROOT` (fixed for the process; the callbacks find it through the symbol `shoulder_bench_native_root`,
 which is resolved when the cached machine code is loaded, so the cache holds no address) holds the address of the
@@ -54,7 +55,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-from shoulder_bench.band_lines import band_cells, band_lengthening, band_level, band_point
+from shoulder_bench.band_lines import band_cells, band_lengthening, band_level, band_point, fibre_law
 from shoulder_bench.muscle import law_cell, law_point
 from shoulder_bench.struct_offsets import find_offsets, words
 
@@ -64,8 +65,8 @@ ROW = 17  # int64 words per registry row
 VALID, FLAT, ARM, LEVELS, NIVS, CTRL_OF, NCOL, NK, NLEV, QADR, VADR, A0, INV_DA, MODE, X0, INV_DX, BAND = range(17)
 JOINT_MODE, LENGTH_MODE = 0, 1  # row[MODE]: the law reads one joint's angle (ForceLaw) or each tendon's length
 # row[BAND]: 0, or the address of a band block (int64 words): the law's band corrections (`band_lines`)
-NB, ACTS, BGRID, BSHAPE, BTABLE, BQADR, BDADR, BNU, BLEN = range(9)
-BLOCK = 9  # int64 words per band block
+NB, ACTS, BGRID, BSHAPE, BTABLE, BQADR, BDADR, BNU, BLEN, BFIB, NFIB = range(11)  # BFIB, NFIB: fibres or 0, 0
+BLOCK = 11  # int64 words per band block
 # _ROOT layout
 TABLE, M_USER, M_NUSER, D_QPOS, D_QVEL, D_CTRL, D_ALEN, D_AVEL, M_NU, D_QFRC_PASSIVE, M_GEAR = range(11)
 ROOT_WORDS = 11
@@ -153,8 +154,12 @@ def _evaluate(m, d, i):
         scale = 1.0 / gear if gear != 0.0 else 1.0
         tendon, velocity = length[i] * scale, speed[i] * scale
         if row[BAND] != 0:  # a band tendon: its band's length and lengthening rate (`band_lines`)
-            dl, dv = _band_state(m, d, row[BAND], i, ctrl[ctrl_of[c]])
+            dl, dv, b = _band_state(m, d, row[BAND], i, ctrl[ctrl_of[c]])
             tendon, velocity = tendon + dl, velocity + dv
+            if b >= 0 and _word(row[BAND] + 8 * NFIB) > 0:  # "band_fibres": the mean of its band's fibres' law
+                per_unit, passive, fv = _fibres(d, row[BAND], b, flat, arm, levels, n, c, tendon, x0[c], inv_dx[c],
+                                                nk - 1.000001, ctrl[ctrl_of[c]], velocity, nivs[c])
+                return -(per_unit * fv), -passive
         i_cell, w = law_cell(tendon, x0[c], inv_dx[c], nk - 1.000001)
     else:
         qpos = numba.carray(_f64p(_word(dp + root[D_QPOS])), row[QADR] + 1)
@@ -169,12 +174,12 @@ def _evaluate(m, d, i):
 def _band_state(m, d, address, i, a):
     """(band length less the MJCF path's, its lengthening rate less the MJCF path's) of actuator i of model m in data
     d when it is one of the band block's at `address` (`band_lines.band_lengthening`, along the line at activation a
-    clipped to [0, 1]); (0, 0) otherwise, or for another model than the block's."""
+    clipped to [0, 1]) and its index in the block; (0, 0, -1) otherwise, or for another model than the block's."""
     root = numba.carray(_i64p(_root()), ROOT_WORDS)
     mp, dp = _address(m), _address(d)
     block = numba.carray(_i64p(address), BLOCK)
     if block[BNU] != _word(mp + root[M_NU]):
-        return 0.0, 0.0
+        return 0.0, 0.0, -1
     nb = block[NB]
     acts = numba.carray(_i64p(block[ACTS]), nb)
     for b in range(nb):
@@ -187,9 +192,22 @@ def _band_state(m, d, address, i, a):
             dadr = numba.carray(_i64p(block[BDADR]), 3)
             qpos = numba.carray(_f64p(_word(dp + root[D_QPOS])), max(qadr[0], qadr[1], qadr[2]) + 1)
             qvel = numba.carray(_f64p(_word(dp + root[D_QVEL])), max(dadr[0], dadr[1], dadr[2]) + 1)
-            return band_lengthening(lengths, table, b, min(max(a, 0.0), 1.0), qpos[qadr[0]], qpos[qadr[1]],
-                                    qpos[qadr[2]], qvel[dadr[0]], qvel[dadr[1]], qvel[dadr[2]], grid, shape)
-    return 0.0, 0.0
+            dl, dv = band_lengthening(lengths, table, b, min(max(a, 0.0), 1.0), qpos[qadr[0]], qpos[qadr[1]],
+                                      qpos[qadr[2]], qvel[dadr[0]], qvel[dadr[1]], qvel[dadr[2]], grid, shape)
+            return dl, dv, b
+    return 0.0, 0.0, -1
+
+
+@numba.njit(inline="always")
+def _fibres(d, address, b, flat, arm, levels, n, c, length, x0, inv_dx, kmax, a, velocity, nivs):
+    """`band_lines.fibre_law` for band b of the block at `address`, at data d's pose."""
+    block = numba.carray(_i64p(address), BLOCK)
+    grid, shape = numba.carray(_f64p(block[BGRID]), 8), numba.carray(_i64p(block[BSHAPE]), 4)
+    fibres = numba.carray(_f64p(block[BFIB]), (block[NB], 1, shape[0], shape[1], shape[2], block[NFIB]))
+    qadr = numba.carray(_i64p(block[BQADR]), 3)
+    qpos = numba.carray(_f64p(_word(_address(d) + _word(_root() + 8 * D_QPOS))), max(qadr[0], qadr[1], qadr[2]) + 1)
+    return fibre_law(fibres, b, qpos[qadr[0]], qpos[qadr[1]], qpos[qadr[2]], grid, shape, flat, arm, levels, n, c,
+                     length, x0, inv_dx, kmax, a, velocity, nivs)
 
 
 SIGNATURE = types.float64(types.voidptr, types.voidptr, types.int32)
@@ -291,6 +309,9 @@ def _band_block(lines, bands) -> tuple[np.ndarray, tuple]:
     block[NB], block[BNU] = len(acts), bands[3]
     block[ACTS], block[BGRID], block[BSHAPE], block[BTABLE], block[BQADR], block[BDADR], block[BLEN] = (
         x.ctypes.data for x in arrays)
+    if lines.fibres is not None:  # line_of_action="band_fibres"
+        arrays += (np.ascontiguousarray(lines.fibres, dtype=np.float64),)
+        block[BFIB], block[NFIB] = arrays[-1].ctypes.data, lines.fibres.shape[-1]
     return block, arrays
 
 

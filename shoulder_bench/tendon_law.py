@@ -120,7 +120,8 @@ class TendonLaw:
         (default models/muscles_full); a condition's `geometry` (`full_arm.GEOMETRIES`: ld_transfer) reads its
         rerouted tendons from its own folder. line_of_action "band": those of its tendons with a band table
         (`band_lines.BAND_TENDONS`, `<folder>/<tendon>_band.npz`) act along the FEM band's line, the others along
-        their MJCF paths; "mjcf" (default): all along their MJCF paths."""
+        their MJCF paths; "band_fibres": the same lines, and the band tendons' force their fibres' (`band_lines`: each
+        fibre at its own length, `<folder>/<tendon>_fibres.npz`); "mjcf" (default): all along their MJCF paths."""
         from shoulder_bench.band_lines import BAND_TENDONS, LINES, BandLines
         from shoulder_bench.full_arm import GEOMETRIES, TENDONS
 
@@ -138,8 +139,8 @@ class TendonLaw:
                 raise ValueError(f"muscle table {p} is for {table.muscle!r}, not {t!r}")
             tables.append(table)
         law = cls(tables, groups)
-        if line_of_action == "band":
-            law.lines = BandLines.load([t for t in names if t in BAND_TENDONS], folder)
+        if line_of_action in ("band", "band_fibres"):
+            law.lines = BandLines.load([t for t in names if t in BAND_TENDONS], folder, line_of_action == "band_fibres")
         return law
 
     def scaled(self, factors: dict[str, float]) -> TendonLaw:
@@ -203,17 +204,42 @@ class TendonLaw:
                 activation, out)
         return out
 
-    def gain_bias_one(self, length, velocity, activation) -> tuple[np.ndarray, np.ndarray]:
+    def gain_bias_one(self, length, velocity, activation, departures=None) -> tuple[np.ndarray, np.ndarray]:
         """One state: tendon lengths (n,), lengthening rates (n,), activations per muscle (m,) -> (gain, bias) per
-        tendon, as `ForceLaw.gain_bias_one` (positive; the callbacks negate them)."""
-        out = self._evaluate_all(np.asarray(length)[None], np.asarray(velocity)[None], np.asarray(activation)[None])
-        return out[4, 0], out[2, 0]
+        tendon, as `ForceLaw.gain_bias_one` (positive; the callbacks negate them). departures (nt, n): each tendon's
+        law the mean of nt fibres', each at its length plus its departure (`band_lines.fibre_law`)."""
+        d = np.zeros((1, self._n)) if departures is None else np.asarray(departures, dtype=float)
+        out = self._evaluate_all(np.asarray(length)[None] + d, np.asarray(velocity)[None],
+                                 np.repeat(np.asarray(activation, dtype=float)[None], len(d), axis=0))
+        return out[4].mean(axis=0), out[2].mean(axis=0)
 
-    def force(self, length, velocity, activation) -> np.ndarray:
+    def force(self, length, velocity, activation, departures=None) -> np.ndarray:
         """(B, n) tendon forces (N, pulling) at lengths (B, n) m, lengthening rates (B, n) m/s, activations
-        (B, muscles)."""
-        out = self._evaluate_all(length, velocity, activation)
-        return out[0] * out[3] + out[2]
+        (B, muscles); departures ((B or 1, nt, n) m, `departures`): each tendon's force the mean of nt fibres', each at
+        its length plus its departure."""
+        if departures is None:
+            out = self._evaluate_all(length, velocity, activation)
+            return out[0] * out[3] + out[2]
+        act = np.atleast_2d(np.asarray(activation, dtype=float))
+        b = len(act)
+        d = np.broadcast_to(np.asarray(departures, dtype=float), (b,) + np.shape(departures)[-2:])
+        nt = d.shape[1]
+
+        def each(x):  # (b, n), each row nt times
+            return np.repeat(np.broadcast_to(np.asarray(x, dtype=float), (b, self._n)), nt, axis=0)
+
+        out = self._evaluate_all(each(length) + d.reshape(b * nt, self._n), each(velocity), np.repeat(act, nt, axis=0))
+        return (out[0] * out[3] + out[2]).reshape(b, nt, self._n).mean(axis=1)
+
+    def departures(self, poses_deg) -> np.ndarray | None:
+        """(P, nt, n) m: each tendon's fibres' departures from its band's mean fibre at `poses_deg` (P, 3), 0 for the
+        tendons without a band, as the callbacks read them; None for a law without fibre tables ("band_fibres")."""
+        if self.lines is None or self.lines.fibres is None:
+            return None
+        got = self.lines.departures(poses_deg)  # (P, bands, nt)
+        out = np.zeros((len(got), got.shape[2], self._n))
+        out[:, :, [self.actuators.index(t) for t in self.lines.tendons]] = got.transpose(0, 2, 1)
+        return out
 
 
 @numba.njit(cache=True, nogil=True)

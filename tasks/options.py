@@ -40,10 +40,11 @@ OPTIONS = {
                  "U[LO, HI] kg at the elbow; keys left out are not randomised)",
     "fatigue": "False, True or a dict of 3CC-r parameters F, R, r, LD, LR: per-muscle fatigue, the residual "
                "capacity 1 - M_F caps the activation",
-    "line_of_action": "'mjcf' or 'band' (3-DOF tasks only): 'band' makes the tendons with a band table (ssp, isp, "
-                      "ssc, tmi, tma, pec1-3, dpo, dan, ld1-3) act along their FEM footprint sheet's line of action, "
-                      "their force read at the band's length (shoulder_bench.band_lines), the others (dmi, cor) along "
-                      "their MJCF paths",
+    "line_of_action": "'mjcf', 'band' or 'band_fibres' (3-DOF tasks only): 'band' makes the tendons with a band "
+                      "table (ssp, isp, ssc, tmi, tma, pec1-3, dpo, dan, ld1-3) act along their FEM footprint sheet's "
+                      "line of action, their force read at the band's length (shoulder_bench.band_lines), the others "
+                      "(dmi, cor) along their MJCF paths; 'band_fibres' the same, each band tendon's force the mean "
+                      "of its band's fibres', each at its own length",
 }
 
 # each option's default, as `shoulder-bench tasks --options` shows it (None where the task decides)

@@ -12,15 +12,15 @@ finite state, a MuJoCo instability, a coordinate more than VALID_MARGIN_DEG past
 with the 1-DOF tasks' penalty.
 
 Options (OPTIONS): the reward's alpha and omega_max, init, workspace, line_of_action ("band": the FEM bands' line of
-action, `band_lines`), what the agent senses, delay_frames and obs_noise_deg (`sensing`, as the 1-DOF tasks'), and
-randomize (`shoulder_bench.randomization`, as the 1-DOF tasks': each episode's muscle strengths through the actuators'
-gear, all of a muscle's tendons by one draw, on the band's line of action too (`native.passive` reads the gear), the
-humerus mass and a load at the elbow, MoBL's humerus frame as the v2 arm's), and a shoulder condition (`condition`,
-`tear_fraction`, `weakness_fraction`: `shoulder_bench.conditions`' tears and weakness scale or remove muscles' tabled
-forces, `law_for`; ld_transfer reroutes ld1-3 on its own model and tables, `full_arm.GEOMETRIES`, `pose_for`; the
-reference controller plans with them), and
-the muscle physiology (`activation_dynamics`, `fatigue`: `shoulder_bench.physiology`, the 1-DOF tasks' per-step
-activation path, `single_env.SingleEnv`).
+action, `band_lines`; "band_fibres": and their fibres' force), what the agent senses, delay_frames and obs_noise_deg
+(`sensing`, as the 1-DOF tasks'), and randomize (`shoulder_bench.randomization`, as the 1-DOF tasks': each episode's
+muscle strengths through the actuators' gear, all of a muscle's tendons by one draw, on the band's line of action too
+(`native.passive` reads the gear), the humerus mass and a load at the elbow, MoBL's humerus frame as the v2 arm's),
+and a shoulder condition (`condition`, `tear_fraction`, `weakness_fraction`: `shoulder_bench.conditions`' tears and
+weakness scale or remove muscles' tabled forces, `law_for`; ld_transfer reroutes ld1-3 on its own model and tables,
+`full_arm.GEOMETRIES`, `pose_for`; the reference controller plans with them), and the muscle physiology
+(`activation_dynamics`, `fatigue`: `shoulder_bench.physiology`, the 1-DOF tasks' per-step activation path,
+`single_env.SingleEnv`).
 
 Targets (`trajectory3`): random quintic segments per coordinate (train 10 s, test 20 s, wider ranges), a CSV file
 (time_s, plane_deg, elevation_deg, rotation_deg), an ADL name, or (K, 3) degrees. `workspace="scapular_plane"`:

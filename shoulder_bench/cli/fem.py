@@ -222,8 +222,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    "ssp, isp, tmi, tma, pec1, pec2, pec3, dpo, dan, ld1-3 over the 3-DOF pose grid "
                    "(models/muscles_full/<t>_band.npz)")
     b.add_argument("--fibres", action="store_true", help="the taut bands' fibre tables: each fibre's length change "
-                   "less the mean fibre's over the tasks' pose grid (models/muscles_full/<t>_fibres.npz; a study, "
-                   "not applied in MuJoCo yet)")
+                   "less the mean fibre's over the tasks' pose grid (models/muscles_full/<t>_fibres.npz; read with "
+                   "line_of_action=band_fibres)")
     b.add_argument("--jobs", type=int, default=1, help="with --full: solve this many tendons at once (processes); "
                    "with --bands or --fibres: this many processes solve each tendon's poses")
     b.add_argument("--variant", choices=("ld_transfer",), default=None, help="with --full: a rerouted geometry's "

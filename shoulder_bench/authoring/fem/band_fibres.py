@@ -19,8 +19,9 @@ unsolved pose takes the mean of its solved neighbours' (`bands.neighbours_mean`)
 The force from the fibres (`fibre_force`): the band's nt fibres as nt parallel strips of the tendon's length-keyed
 FEM sheet, each at its own length L + departure_i and the band's lengthening rate: F = mean_i F(L + departure_i, a,
 v). The membrane's coupling between neighbouring fibres is not in it (each strip takes the whole sheet's law per unit
-width), nor does each fibre's own lengthening rate enter. Not applied in MuJoCo yet (the callbacks read one length);
-`benchmarks/band_fibres.py` measures what it changes.
+width), nor does each fibre's own lengthening rate enter. MuJoCo applies it with line_of_action="band_fibres"
+(`band_lines.fibre_law`, the callbacks' implementation of the same arithmetic); `benchmarks/band_fibres.py` measures
+what it changes against one length.
 
 Table (`<folder>/<tendon>_fibres.npz`, default models/muscles_full): plane_deg, elevation_deg, rotation_deg (the
 grid); departure_m (P, E, R, nt); unsolved (P, E, R) bool; meta (JSON: tendon, input_hash, anchor, build_seconds,
