@@ -137,3 +137,12 @@ def test_mujoco_applies_the_fibres_force_with_either_callback():
     np.testing.assert_allclose(band.actuator_force[others], d.actuator_force[others], rtol=1e-12)
     gap = np.abs(band.actuator_force[ids] - d.actuator_force[ids])[cols]
     assert gap.max() > 1.0  # N: the fibres change some band tendon's force here
+
+
+def test_the_applied_check_covers_the_fibres():
+    """`fem verify --bands`'s applied section with line_of_action="band_fibres": MuJoCo's generalised force equals
+    the fibres' force times the band's arms at every grid pose and level (tmi's 840 x 6)."""
+    from shoulder_bench.authoring.fem.verify_full import applied_vs_fem
+
+    checks = applied_vs_fem(line_of_action="band_fibres", muscles=("tmi",))
+    assert len(checks) == 3 and all(ok for _, ok, _ in checks)

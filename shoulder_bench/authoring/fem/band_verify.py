@@ -17,7 +17,7 @@ from shoulder_bench.authoring.fem.bands import (
     solve_poses,
     table_path,
 )
-from shoulder_bench.band_lines import BandLines, levels_path
+from shoulder_bench.band_lines import BandLines, fibres_path, levels_path
 
 
 def verify(folder: Path | None = None, tendons=None, resolution: str | None = None, poses=None,
@@ -41,7 +41,8 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
        band finds no equilibrium at a level counts as unsolved.
     2. What MuJoCo applies with the tables (the task option line_of_action="band", `band_lines`): each tendon alone,
        at every grid pose and activation level, against F(L_band(q), a) r_band(q) (`verify_full.applied_vs_fem`); bound
-       `verify_full.APPLIED_TOL`."""
+       `verify_full.APPLIED_TOL`; where every tendon has a fibre table in `folder`, again with line_of_action=
+       "band_fibres" (F the mean of its band's fibres')."""
     from shoulder_bench.authoring.fem.footprint_grid import cells
     from shoulder_bench.authoring.fem.verify import report
     from shoulder_bench.authoring.fem.verify_full import APPLIED_TOL, HELD_OUT_TOL, applied_vs_fem
@@ -93,9 +94,13 @@ def verify(folder: Path | None = None, tendons=None, resolution: str | None = No
                 failed.append(t if a == 1.0 else f"{t} at a = {a:g}")
     if checked:
         print("all band tables within the bound" if not failed else f"over the bound or unsolved: {', '.join(failed)}")
-    applied = report([(f"MuJoCo's applied generalised force with the band corrections vs the FEM band's, every grid "
-                       f"pose and level (pass: <= {100 * APPLIED_TOL:g} % of the tendon's peak |torque| in that "
-                       "coordinate)", applied_vs_fem(folder, "band", names))])
+    sections = [(f"MuJoCo's applied generalised force with the band corrections vs the FEM band's, every grid "
+                 f"pose and level (pass: <= {100 * APPLIED_TOL:g} % of the tendon's peak |torque| in that "
+                 "coordinate)", applied_vs_fem(folder, "band", names))]
+    if all(fibres_path(t, folder).exists() for t in names):  # line_of_action="band_fibres": the force its fibres'
+        sections.append(("The same with line_of_action=\"band_fibres\" (the force the mean of the band's fibres' "
+                         "law, each at its own length)", applied_vs_fem(folder, "band_fibres", names)))
+    applied = report(sections)
     return 1 if failed or applied else 0
 
 

@@ -99,7 +99,8 @@ def applied_vs_fem(folder: Path | None = None, line_of_action: str = "mjcf", mus
     every grid pose and level. line_of_action "band": the band tendons (`band_lines.BAND_TENDONS`), each acting along
     its band (`fem verify --bands`; the band tables from `folder`, the force tables from models/muscles_full, as
     the held-out check takes them), against F(L_band(q), a) times the band's own moment arms at its table's grid poses
-    (below a = 1 plus its level table's move from them, where it has one)."""
+    (below a = 1 plus its level table's move from them, where it has one); "band_fibres": the same, F the mean of
+    its band's fibres' (`TendonLaw.force` with `TendonLaw.departures`; the fibre tables from `folder` too)."""
     from shoulder_bench.band_lines import AXES, BAND_TENDONS, BandLines, read_table, table_path
     from shoulder_bench.tendon_law import TendonLaw
 
@@ -110,7 +111,7 @@ def applied_vs_fem(folder: Path | None = None, line_of_action: str = "mjcf", mus
     checks = []
     for t in muscles or BAND_TENDONS:
         law = TendonLaw.load("fem", (t,))
-        law.lines = BandLines.load((t,), folder)
+        law.lines = BandLines.load((t,), folder, line_of_action == "band_fibres")
         arrays = read_table(table_path(t, folder))[0]
         poses = np.stack(np.meshgrid(*(arrays[k] for k in AXES), indexing="ij"), axis=-1).reshape(-1, 3)
         arms, lines = arrays["moment_arm_m"].reshape(-1, 1, 3), law.lines  # below a = 1: its level table's move
@@ -138,7 +139,7 @@ def applied_checks(law, muscle: str, poses: np.ndarray, arms: np.ndarray | None 
     ids = [m.actuator(t).id for t in law.actuators]
     applied, table = np.zeros((len(poses), len(levels), 3)), np.zeros((len(poses), len(levels), 3))
     for j, a in enumerate(levels):
-        f = law.force(L, np.zeros_like(L), np.full((len(poses), 1), a))  # (P, n)
+        f = law.force(L, np.zeros_like(L), np.full((len(poses), 1), a), law.departures(poses))  # (P, n)
         table[:, j] = np.einsum("pn,pnk->pk", f, r(a) if callable(r) else r)
         d.ctrl[:] = 0.0
         d.ctrl[ids] = a
