@@ -86,59 +86,6 @@ def test_the_verify_fails_a_table_without_the_spread(tmp_path, monkeypatch, caps
     assert "1 over: FAIL" in capsys.readouterr().out
 
 
-def test_mujoco_applies_the_fibres_force_with_either_callback():
-    """line_of_action="band_fibres": each band tendon's force MuJoCo applies is the mean of its fibres' law, each at
-    the band's length plus its departure read from the fibre table (`fibre_force`), with the compiled and the Python
-    callbacks alike; the bands' line as with "band"; the other tendons as before."""
-    import mujoco
-
-    from shoulder_bench import full_arm
-    from shoulder_bench.model import attach_law, install_callbacks
-
-    pose_deg, rates = np.array([52.0, 118.0, 27.0]), np.array([0.3, -0.5, 0.8])
-    out = {}
-    for line, native in (("band_fibres", True), ("band_fibres", False), ("band", True)):
-        law = TendonLaw.load("fem", groups=full_arm.ACTUATORS, line_of_action=line)
-        m = full_arm.compile_full()
-        attach_law(m, law)
-        install_callbacks(native=native)
-        try:
-            pose, d = full_arm.Pose(m), mujoco.MjData(m)
-            d.qpos[:] = pose.qpos(pose_deg)[0]
-            d.qvel[pose.dadr] = rates
-            d.ctrl[:] = 0.7
-            mujoco.mj_forward(m, d)
-            out[line, native] = (law, m, d)
-        finally:
-            install_callbacks()
-    law, m, d = out["band_fibres", True]
-    np.testing.assert_allclose(out["band_fibres", False][2].actuator_force, d.actuator_force, rtol=1e-12, atol=1e-9)
-    ids = [m.actuator(t).id for t in law.actuators]
-    cols = [law.actuators.index(t) for t in law.lines.tendons]
-    dl, dv = law.lines.lengthening(pose_deg, rates, 0.7)
-    length, speed = d.actuator_length[ids].copy(), d.actuator_velocity[ids].copy()
-    length[cols] += dl[0]
-    speed[cols] += dv[0]
-    departures = law.lines.departures(pose_deg)[0]
-    for b, t in enumerate(law.lines.tendons):
-        one = TendonLaw.load("fem", (t,))
-        want = F.fibre_force(one, length[cols[b]], departures[b][None], 0.7, speed[cols[b]])[0]
-        assert -d.actuator_force[ids[cols[b]]] == pytest.approx(want, rel=1e-9)
-        np.testing.assert_allclose(departures[b], F.FibreTable.load(t).departure([pose_deg])[0], atol=1e-12)
-    # what the planners read (TendonLaw.force with TendonLaw.departures) is what MuJoCo applies, every tendon
-    act = np.full((1, len(law.muscles)), 0.7)
-    np.testing.assert_allclose(law.force(length[None], speed[None], act, law.departures(pose_deg)),
-                               -d.actuator_force[ids][None], rtol=1e-9)
-    assert not law.departures(pose_deg)[0][:, [k for k in range(len(ids)) if k not in cols]].any()
-    np.testing.assert_allclose(law.force(length[None], speed[None], act, np.zeros((1, 9, len(ids)))),
-                               law.force(length[None], speed[None], act), rtol=1e-12)
-    band = out["band", True][2]
-    others = [ids[k] for k in range(len(ids)) if k not in cols]
-    np.testing.assert_allclose(band.actuator_force[others], d.actuator_force[others], rtol=1e-12)
-    gap = np.abs(band.actuator_force[ids] - d.actuator_force[ids])[cols]
-    assert gap.max() > 1.0  # N: the fibres change some band tendon's force here
-
-
 def test_the_applied_check_covers_the_fibres():
     """`fem verify --bands`'s applied section with line_of_action="band_fibres": MuJoCo's generalised force equals
     the fibres' force times the band's arms at every grid pose and level (tmi's 840 x 6)."""

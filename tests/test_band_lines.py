@@ -1,7 +1,7 @@
 """The band tables applied in MuJoCo (shoulder_bench/band_lines.py, the passive callbacks; the 3-DOF tasks'
-line_of_action="band"): the correction read as scipy reads the tables, the compiled and the Python callbacks alike,
-the applied generalised force the band's, the statics and the options (the batched env against the single env with
-the bands: tests/test_tasks_3dof.py)."""
+line_of_action="band", and "band_fibres"): the correction read as scipy reads the tables, the compiled and the Python
+callbacks alike, the applied generalised force the band's, the statics and the options (the batched env against the
+single env with the bands: tests/test_tasks_3dof.py)."""
 from __future__ import annotations
 
 import mujoco
@@ -17,15 +17,17 @@ from shoulder_bench.tendon_law import TendonLaw
 POSE = np.array([37.0, 63.0, 11.0])  # deg, between grid poses in every coordinate
 
 
-def _forward(law, pose_deg, activation: float, native: bool = True):
-    """mj_forward at a pose with every muscle at `activation`; native=False: the Python actuator callbacks (the
-    band forces come from the compiled passive callback either way)."""
+def _forward(law, pose_deg, activation: float, native: bool = True, rates=None):
+    """mj_forward at a pose with every muscle at `activation` (and the coordinates at `rates` rad/s, default at
+    rest); native=False: the Python actuator callbacks (the band forces come from the compiled passive callback
+    either way)."""
     m = full_arm.compile_full()
     attach_law(m, law)
     install_callbacks(native=native)
     try:
         pose, d = full_arm.Pose(m), mujoco.MjData(m)
         d.qpos[:] = pose.qpos(pose_deg)[0]
+        d.qvel[pose.dadr] = 0.0 if rates is None else rates
         d.ctrl[:] = activation
         mujoco.mj_forward(m, d)
     finally:
@@ -172,3 +174,42 @@ def test_line_of_action_option_errors():
     m.actuator_ctrllimited[m.actuator("ld2").id] = 0
     with pytest.raises(ValueError, match="actuator 'ld2': a band correction needs a ctrl limited to"):
         attach_law(m, TendonLaw.load("fem", groups=full_arm.ACTUATORS, line_of_action="band"))
+
+
+def test_mujoco_applies_the_fibres_force_with_either_callback():
+    """line_of_action="band_fibres": each band tendon's force MuJoCo applies is the mean of its fibres' law, each at
+    the band's length plus its departure read from the fibre table (`fibre_force`), with the compiled and the Python
+    callbacks alike; the bands' line as with "band"; the other tendons as before."""
+    from shoulder_bench.authoring.fem import band_fibres as F
+
+    pose_deg, rates = np.array([52.0, 118.0, 27.0]), np.array([0.3, -0.5, 0.8])
+    out = {}
+    for line, native in (("band_fibres", True), ("band_fibres", False), ("band", True)):
+        law = TendonLaw.load("fem", groups=full_arm.ACTUATORS, line_of_action=line)
+        out[line, native] = (law, *_forward(law, pose_deg, 0.7, native, rates)[:2])
+    law, m, d = out["band_fibres", True]
+    np.testing.assert_allclose(out["band_fibres", False][2].actuator_force, d.actuator_force, rtol=1e-12, atol=1e-9)
+    ids = [m.actuator(t).id for t in law.actuators]
+    cols = [law.actuators.index(t) for t in law.lines.tendons]
+    dl, dv = law.lines.lengthening(pose_deg, rates, 0.7)
+    length, speed = d.actuator_length[ids].copy(), d.actuator_velocity[ids].copy()
+    length[cols] += dl[0]
+    speed[cols] += dv[0]
+    departures = law.lines.departures(pose_deg)[0]
+    for b, t in enumerate(law.lines.tendons):
+        one = TendonLaw.load("fem", (t,))
+        want = F.fibre_force(one, length[cols[b]], departures[b][None], 0.7, speed[cols[b]])[0]
+        assert -d.actuator_force[ids[cols[b]]] == pytest.approx(want, rel=1e-9)
+        np.testing.assert_allclose(departures[b], F.FibreTable.load(t).departure([pose_deg])[0], atol=1e-12)
+    # what the planners read (TendonLaw.force with TendonLaw.departures) is what MuJoCo applies, every tendon
+    act = np.full((1, len(law.muscles)), 0.7)
+    np.testing.assert_allclose(law.force(length[None], speed[None], act, law.departures(pose_deg)),
+                               -d.actuator_force[ids][None], rtol=1e-9)
+    assert not law.departures(pose_deg)[0][:, [k for k in range(len(ids)) if k not in cols]].any()
+    np.testing.assert_allclose(law.force(length[None], speed[None], act, np.zeros((1, 9, len(ids)))),
+                               law.force(length[None], speed[None], act), rtol=1e-12)
+    band = out["band", True][2]
+    others = [ids[k] for k in range(len(ids)) if k not in cols]
+    np.testing.assert_allclose(band.actuator_force[others], d.actuator_force[others], rtol=1e-12)
+    gap = np.abs(band.actuator_force[ids] - d.actuator_force[ids])[cols]
+    assert gap.max() > 1.0  # N: the fibres change some band tendon's force here

@@ -42,7 +42,7 @@ from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem import bands
 from shoulder_bench.authoring.fem.full import locked_folder
 from shoulder_bench.authoring.fem.material import Material
-from shoulder_bench.band_lines import LENGTH_ANCHOR_DEG
+from shoulder_bench.band_lines import LENGTH_ANCHOR_DEG, fibres_path, read_fibres
 from shoulder_bench.muscle import replacing
 
 FIBRES_VERSION = "band-fibres-1"  # bump when a change alters the tables; part of their input hash
@@ -51,7 +51,7 @@ VERIFY_ACTIVATIONS = (1.0, 0.0)  # ... at these activations (0: the passive forc
 
 
 def table_path(tendon: str, folder: Path | None = None) -> Path:
-    return Path(folder or full_arm.TABLE_FOLDER) / f"{tendon}_fibres.npz"
+    return fibres_path(tendon, folder)
 
 
 def input_hash(tendon: str, resolution: str = "full") -> str:
@@ -130,18 +130,7 @@ class FibreTable:
 
     @classmethod
     def load(cls, tendon: str, folder: Path | None = None) -> FibreTable:
-        path = table_path(tendon, folder)
-        fix = f"build it with `shoulder-bench fem build --fibres --tendon {tendon}`"
-        try:
-            with np.load(path) as z:
-                arrays = {k: z[k] for k in ("plane_deg", "elevation_deg", "rotation_deg", "departure_m")}
-                meta = json.loads(str(z["meta"]))
-        except FileNotFoundError:
-            raise ValueError(f"no fibre table {path}: {fix}") from None
-        except (OSError, KeyError, ValueError) as exc:
-            raise ValueError(f"unreadable fibre table {path} ({exc}): {fix}") from None
-        if meta.get("tendon") != tendon:
-            raise ValueError(f"fibre table {path} is for {meta.get('tendon')!r}, not {tendon!r}: {fix}")
+        arrays, meta = read_fibres(table_path(tendon, folder), tendon)
         return cls([arrays[k] for k in ("plane_deg", "elevation_deg", "rotation_deg")], arrays["departure_m"], meta)
 
     def departure(self, poses_deg) -> np.ndarray:
