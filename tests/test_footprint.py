@@ -442,7 +442,7 @@ def test_the_taut_bands_grid_check_scores_its_moment_arms(pose, monkeypatch, tmp
             q = np.radians(np.asarray(p, float))
             arm = 0.01 * np.array([1 + q[0] + 2 * q[1], q[1] - q[2] + q[0] * q[2], 3 + q[2]])
             arm = arm + self.bend * np.cos(4 * q) + self.mjcf_moment_arm(p)
-            return {"moment_arm_m": arm, "tension_N": 80.0, "contact_N": 0.0}
+            return {"moment_arm_m": arm, "tension_N": 80.0, "contact_N": 0.0, "nodes": np.zeros((self.ns * self.nt, 3))}
 
     for bend, zero in ((0.0, True), (0.002, False)):
         monkeypatch.setattr(footprint_compare, "FootprintSheet", lambda *a, bend=bend, **k: Band(bend=bend))
