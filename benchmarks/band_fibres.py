@@ -18,16 +18,14 @@ import numpy as np
 
 from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem import band_fibres, bands
-from shoulder_bench.band_lines import BandLines
 from shoulder_bench.tendon_law import TendonLaw
 
 
 def study(tendon: str, folder, activations) -> dict:
     table = band_fibres.FibreTable.load(tendon, folder)
     poses = bands.mesh_poses(table.axes_deg)
-    law = TendonLaw.load("fem", (tendon,))
-    length = full_arm.Pose().tendon_geometry(poses, (tendon,))[0][:, 0] + \
-        BandLines.load((tendon,)).lengthening(poses)[0][:, 0]
+    law = TendonLaw.load("fem", (tendon,), line_of_action="band")
+    length = law.geometry(full_arm.Pose(), poses)[0][:, 0]  # the band's length
     d = table.departure(poses)
     f0, l_opt = float(table.meta["f0_N"]), float(law.tables[0].meta["optimal_fibre_length_m"])
     out = {"spread_mm": np.ptp(d, axis=1) * 1e3, "l_opt_mm": l_opt * 1e3, "force_pct": {}}
@@ -50,9 +48,8 @@ def figure(path: str, folder, tendons=("ssc", "isp", "pec1"), elevation: float =
     poses = np.stack([pp.ravel(), np.full(pp.size, elevation), rr.ravel()], axis=1)
     fig, axes = plt.subplots(2, len(tendons), figsize=(4.0 * len(tendons), 6.4), squeeze=False, constrained_layout=True)
     for col, t in enumerate(tendons):
-        table, law = band_fibres.FibreTable.load(t, folder), TendonLaw.load("fem", (t,))
-        length = full_arm.Pose().tendon_geometry(poses, (t,))[0][:, 0] + \
-            BandLines.load((t,)).lengthening(poses)[0][:, 0]
+        table, law = band_fibres.FibreTable.load(t, folder), TendonLaw.load("fem", (t,), line_of_action="band")
+        length = law.geometry(full_arm.Pose(), poses)[0][:, 0]  # the band's length
         d = table.departure(poses)
         for row, a in enumerate((1.0, 0.0)):
             at = np.full(len(poses), a)

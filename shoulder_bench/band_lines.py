@@ -289,7 +289,6 @@ class BandLines:
                       np.ascontiguousarray(v), a, dl, dv)
         return dl, dv
 
-
     def departures(self, poses_deg) -> np.ndarray:
         """(P, n, nt) m: each tendon's band's fibres' departures from its mean fibre at `poses_deg` (P, 3), read as
         the callbacks read them (`fibre_law`). Only for lines loaded with fibres."""

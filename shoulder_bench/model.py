@@ -149,10 +149,9 @@ def _gain(m, d, i):
                 dl, dv = e.law.lines.lengthening(np.degrees(s.qpos[qadr]), s.qvel[dadr], a)
                 length[cols] += dl[0]
                 speed[cols] += dv[0]
-                if e.law.lines.fibres is not None:  # line_of_action="band_fibres": the band's fibres, each its length
-                    departures = np.zeros((e.law.lines.fibres.shape[-1], len(length)))
-                    departures[:, cols] = e.law.lines.departures(np.degrees(s.qpos[qadr]))[0].T
-            gain, bias = e.law.gain_bias_one(length, speed, s.ctrl[e.order], departures)
+                departures = e.law.departures(np.degrees(s.qpos[qadr]))  # "band_fibres": (1, nt, n), else None
+            gain, bias = e.law.gain_bias_one(length, speed, s.ctrl[e.order],
+                                             None if departures is None else departures[0])
         else:
             gain, bias = e.law.gain_bias_one(s.qpos[e.qadr], s.qvel[e.vadr], s.ctrl[e.order])
         s.gain = [-x for x in gain.tolist()]  # negative: muscles pull, shortening their tendon

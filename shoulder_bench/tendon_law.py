@@ -204,22 +204,9 @@ class TendonLaw:
                 activation, out)
         return out
 
-    def gain_bias_one(self, length, velocity, activation, departures=None) -> tuple[np.ndarray, np.ndarray]:
-        """One state: tendon lengths (n,), lengthening rates (n,), activations per muscle (m,) -> (gain, bias) per
-        tendon, as `ForceLaw.gain_bias_one` (positive; the callbacks negate them). departures (nt, n): each tendon's
-        law the mean of nt fibres', each at its length plus its departure (`band_lines.fibre_law`)."""
-        d = np.zeros((1, self._n)) if departures is None else np.asarray(departures, dtype=float)
-        out = self._evaluate_all(np.asarray(length)[None] + d, np.asarray(velocity)[None],
-                                 np.repeat(np.asarray(activation, dtype=float)[None], len(d), axis=0))
-        return out[4].mean(axis=0), out[2].mean(axis=0)
-
-    def force(self, length, velocity, activation, departures=None) -> np.ndarray:
-        """(B, n) tendon forces (N, pulling) at lengths (B, n) m, lengthening rates (B, n) m/s, activations
-        (B, muscles); departures ((B or 1, nt, n) m, `departures`): each tendon's force the mean of nt fibres', each at
-        its length plus its departure."""
-        if departures is None:
-            out = self._evaluate_all(length, velocity, activation)
-            return out[0] * out[3] + out[2]
+    def _evaluate_fibres(self, length, velocity, activation, departures) -> np.ndarray:
+        """(5, B, nt, n): `_evaluate_all` at each of nt fibres' lengths, length (B, n) plus departures ((B or 1, nt,
+        n)), at the same rates (B, n) and activations (B, muscles)."""
         act = np.atleast_2d(np.asarray(activation, dtype=float))
         b = len(act)
         d = np.broadcast_to(np.asarray(departures, dtype=float), (b,) + np.shape(departures)[-2:])
@@ -229,7 +216,28 @@ class TendonLaw:
             return np.repeat(np.broadcast_to(np.asarray(x, dtype=float), (b, self._n)), nt, axis=0)
 
         out = self._evaluate_all(each(length) + d.reshape(b * nt, self._n), each(velocity), np.repeat(act, nt, axis=0))
-        return (out[0] * out[3] + out[2]).reshape(b, nt, self._n).mean(axis=1)
+        return out.reshape(5, b, nt, self._n)
+
+    def gain_bias_one(self, length, velocity, activation, departures=None) -> tuple[np.ndarray, np.ndarray]:
+        """One state: tendon lengths (n,), lengthening rates (n,), activations per muscle (m,) -> (gain, bias) per
+        tendon, as `ForceLaw.gain_bias_one` (positive; the callbacks negate them). departures (nt, n): each tendon's
+        law the mean of nt fibres', each at its length plus its departure (`band_lines.fibre_law`)."""
+        if departures is None:
+            out = self._evaluate_all(np.asarray(length)[None], np.asarray(velocity)[None], np.asarray(activation)[None])
+            return out[4, 0], out[2, 0]
+        out = self._evaluate_fibres(np.asarray(length)[None], np.asarray(velocity)[None],
+                                    np.asarray(activation)[None], np.asarray(departures)[None])
+        return out[4, 0].mean(axis=0), out[2, 0].mean(axis=0)
+
+    def force(self, length, velocity, activation, departures=None) -> np.ndarray:
+        """(B, n) tendon forces (N, pulling) at lengths (B, n) m, lengthening rates (B, n) m/s, activations
+        (B, muscles); departures ((B or 1, nt, n) m, `departures`): each tendon's force the mean of nt fibres', each at
+        its length plus its departure."""
+        if departures is None:
+            out = self._evaluate_all(length, velocity, activation)
+            return out[0] * out[3] + out[2]
+        out = self._evaluate_fibres(length, velocity, activation, departures)
+        return (out[0] * out[3] + out[2]).mean(axis=1)
 
     def departures(self, poses_deg) -> np.ndarray | None:
         """(P, nt, n) m: each tendon's fibres' departures from its band's mean fibre at `poses_deg` (P, 3), 0 for the

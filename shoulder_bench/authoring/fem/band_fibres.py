@@ -142,13 +142,12 @@ class FibreTable:
 def fibre_force(law, length_m, departure_m, activation, velocity=0.0) -> np.ndarray:
     """(B,) N: the force of the one tendon of `law` (a `TendonLaw` of one tendon) as the mean of its band's fibres
     each at its own length, `length_m` (B,) + `departure_m` (B, nt), at `activation` (B,) and lengthening rate
-    `velocity` (B,) m/s; with every departure 0 it is `law.force` at `length_m`."""
+    `velocity` (B,) m/s (`TendonLaw.force` with these departures); with every departure 0 it is `law.force` at
+    `length_m`."""
     d = np.atleast_2d(np.asarray(departure_m, float))
-    b, nt = d.shape
-    lengths = (np.broadcast_to(np.asarray(length_m, float), (b,))[:, None] + d).reshape(-1, 1)
-    a = np.repeat(np.broadcast_to(np.asarray(activation, float), (b,)), nt)[:, None]
-    v = np.repeat(np.broadcast_to(np.asarray(velocity, float), (b,)), nt)[:, None]
-    return law.force(lengths, v, np.repeat(a, len(law.muscles), axis=1)).reshape(b, nt).mean(axis=1)
+    b = len(d)
+    column = [np.broadcast_to(np.asarray(x, float), (b,))[:, None] for x in (length_m, velocity, activation)]
+    return law.force(column[0], column[1], np.repeat(column[2], len(law.muscles), axis=1), d[:, :, None])[:, 0]
 
 
 def verify(tendons=bands.FOOTPRINT_TENDONS, folder: Path | None = None, count: int | None = None, jobs: int = 1,
@@ -157,7 +156,6 @@ def verify(tendons=bands.FOOTPRINT_TENDONS, folder: Path | None = None, count: i
     and compare the fibre force at VERIFY_ACTIVATIONS (at the band's length there, `band_lines`, and v = 0; the
     tendon's shipped FEM and band tables) from the table's departures in `folder` with that from the re-solved band's;
     print one line per tendon; 0 when every held-out pose solved and is within VERIFY_BOUND_PCT of F0."""
-    from shoulder_bench.band_lines import BandLines
     from shoulder_bench.tendon_law import TendonLaw
 
     failed = 0
@@ -168,9 +166,8 @@ def verify(tendons=bands.FOOTPRINT_TENDONS, folder: Path | None = None, count: i
             poses = poses[np.sort(np.random.default_rng(seed).choice(len(poses), count, replace=False))]
         solved = solve(t, poses, jobs=jobs)
         ok = solved["converged"]
-        law = TendonLaw.load("fem", (t,))
-        length = full_arm.Pose().tendon_geometry(poses[ok], (t,))[0][:, 0] + \
-            BandLines.load((t,)).lengthening(poses[ok])[0][:, 0]
+        law = TendonLaw.load("fem", (t,), line_of_action="band")
+        length = law.geometry(full_arm.Pose(), poses[ok])[0][:, 0]  # the band's length
         dep = np.abs(table.departure(poses[ok]) - solved["departure_m"][ok]).max(axis=1) * 1e3
         line, over = [], 0
         for a in VERIFY_ACTIVATIONS:
