@@ -166,10 +166,15 @@ def main(argv=None) -> None:
     print(f"its origin line (the nodes fixed to the proximal bone): {np.round(angle, 0).tolist()} deg from the glenoid "
           f"axis, {np.round(dist, 1).tolist()} mm from the joint centre")
     if bone is not None:
-        scapula = sheet.m.body("scapula").id
-        local = (sheet.boundary()["origin"] - sheet.d.xpos[scapula]) @ sheet.d.xmat[scapula].reshape(3, 3)
+        local = in_scapula_frame(sheet, sheet.boundary()["origin"])
         print(f"  against the scapula surface: {int(inside_bone(bone, local).sum())} of {len(local)} inside; "
               f"{np.round(surface_distance(bone, local) * 1e3, 1).tolist()} mm from it")
+
+
+def in_scapula_frame(sheet: FootprintSheet, points: np.ndarray) -> np.ndarray:
+    """(N, 3) `points` (world, m) in the scapula body's frame at the sheet's current pose."""
+    scapula = sheet.m.body("scapula").id
+    return (np.reshape(points, (-1, 3)) - sheet.d.xpos[scapula]) @ sheet.d.xmat[scapula].reshape(3, 3)
 
 
 def surface_distance(tri: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -181,8 +186,7 @@ def surface_distance(tri: np.ndarray, points: np.ndarray) -> np.ndarray:
 def in_bone(sheet: FootprintSheet, nodes: np.ndarray, tri: np.ndarray) -> str:
     """' | inside the scapula: N nodes, rows R0-R1, fibres F0-F1, at most D mm deep' for the solved band's nodes (rows
     from the origin; the depth: the distance to the surface's nearest point)."""
-    scapula = sheet.m.body("scapula").id
-    local = (nodes.reshape(-1, 3) - sheet.d.xpos[scapula]) @ sheet.d.xmat[scapula].reshape(3, 3)
+    local = in_scapula_frame(sheet, nodes)
     inside = np.flatnonzero(inside_bone(tri, local))
     if not len(inside):
         return " | inside the scapula: 0 nodes"
@@ -195,8 +199,7 @@ def in_bone(sheet: FootprintSheet, nodes: np.ndarray, tri: np.ndarray) -> str:
 def origin_line(sheet: FootprintSheet, joint: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The origin nodes' angles from the glenoid axis (deg) and distances from the joint centre (mm), in the scapula
     frame (they are fixed to the scapula: the same at every pose)."""
-    scapula = sheet.m.body("scapula").id
-    local = (sheet.boundary()["origin"] - sheet.d.xpos[scapula]) @ sheet.d.xmat[scapula].reshape(3, 3) - joint
+    local = in_scapula_frame(sheet, sheet.boundary()["origin"]) - joint
     dist = np.linalg.norm(local, axis=1)
     return np.degrees(np.arccos(np.clip(local @ axis / dist, -1.0, 1.0))), dist * 1e3
 
