@@ -1,6 +1,7 @@
 """What each physiology option (issue 14 §1) costs the batched env: frames/s of `make_vec("abduction_4m", N)` with
 random actions; with --task track_3dof, what they and the band's line of action (`line_of_action="band"`, the
-passive-force callback; "band_fibres", the force its fibres') cost the full shoulder's. The configurations take
+passive-force callback; "band_fibres", the force its fibres') and the compliant tendon (`tendon="compliant"`, a
+finer table) cost the full shoulder's. The configurations take
 turns in short chunks of frames (round robin, so that a loaded machine's swings hit them alike); each one's rate is
 its frames over the summed time of its chunks, also as the ratio to the default protocol.
 
@@ -20,6 +21,7 @@ CONFIGS = {"abduction_4m": {"default": {}, "activation_dynamics": {"activation_d
                             "all three": {"activation_dynamics": True, "fatigue": True, "randomize": True}},
            "track_3dof": {"default": {}, "line_of_action=band": {"line_of_action": "band"},
                           "line_of_action=band_fibres": {"line_of_action": "band_fibres"},
+                          "tendon=compliant": {"tendon": "compliant"},
                           "activation_dynamics": {"activation_dynamics": True}, "fatigue": {"fatigue": True},
                           "randomize": {"randomize": True},
                           "all three": {"activation_dynamics": True, "fatigue": True, "randomize": True}}}

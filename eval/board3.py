@@ -88,10 +88,11 @@ def suite_scores(policy, task: str, specs: list[str], options: dict | None, sets
 
 
 def law_options(options: dict | None) -> dict:
-    """The task options of a 3-DOF run that decide its muscles' torques: line_of_action and the condition."""
+    """The task options of a 3-DOF run that decide its muscles' torques: line_of_action, tendon and the condition."""
     from shoulder_bench.eval.evaluate import CONDITION_OPTIONS
+    from shoulder_bench.tasks.track3d import LAW_OPTIONS
 
-    return {k: v for k, v in (options or {}).items() if k in ("line_of_action",) + CONDITION_OPTIONS}
+    return {k: v for k, v in (options or {}).items() if k in LAW_OPTIONS + CONDITION_OPTIONS}
 
 
 def lines_of(options: dict | None) -> str:

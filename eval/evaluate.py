@@ -117,10 +117,11 @@ def policy_for(spec: str, task: str | None = None, options: dict | None = None) 
         task = check_name(task or "abduction_4m")
         if is_3dof(task):
             from shoulder_bench.eval.reference3 import ReferenceController3
+            from shoulder_bench.tasks.track3d import LAW_OPTIONS
 
-            lines = (options or {}).get("line_of_action", "mjcf")  # the muscles' line of action it plans with
-            cond = {k: v for k, v in (options or {}).items() if k in CONDITION_OPTIONS}
-            return ReferenceController3(task, line_of_action=lines, **cond), {"task": task, "algo": "reference"}, task
+            # it plans with the muscles' law (line of action, tendon) and the condition the task simulates
+            law = {k: v for k, v in (options or {}).items() if k in LAW_OPTIONS + CONDITION_OPTIONS}
+            return ReferenceController3(task, **law), {"task": task, "algo": "reference"}, task
         cond = {k: v for k, v in (options or {}).items() if k in CONDITION_OPTIONS}
         return ReferenceController(task, **cond), {"task": task, "algo": "reference"}, task
     from shoulder_bench.train.policy import load_policy

@@ -26,7 +26,7 @@ class ReferenceController3:
 
     def __init__(self, task: str, muscle_model: str = "fem", kp: float = 60.0, kv: float = 14.0,
                  line_of_action: str = "mjcf", condition: str | None = None, tear_fraction: float | None = None,
-                 weakness_fraction: float | None = None, **options):
+                 weakness_fraction: float | None = None, tendon: str = "rigid", **options):
         from shoulder_bench.tasks.track3d import condition_law
 
         muscles, discrete, _, _ = TASKS_3DOF[check_name(task)]
@@ -34,7 +34,7 @@ class ReferenceController3:
             raise ValueError(f"the reference controller acts continuously; use {task.replace('_discrete', '')}")
         # it plans with the arms the muscles act along and the shoulder's condition, as the task simulates them
         self.law, self.pose = condition_law(condition, muscles, tear_fraction, weakness_fraction, muscle_model,
-                                            line_of_action)
+                                            line_of_action, tendon)
         self.statics = Statics(self.law, self.pose)
         self.kp, self.kv = kp, kv
         self.muscle_model = muscle_model

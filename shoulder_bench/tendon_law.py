@@ -115,18 +115,24 @@ class TendonLaw:
 
     @classmethod
     def load(cls, muscle_model: str = "fem", tendons=None, folder: Path | None = None,
-             groups: dict | None = None, line_of_action: str = "mjcf", geometry: str | None = None) -> TendonLaw:
+             groups: dict | None = None, line_of_action: str = "mjcf", geometry: str | None = None,
+             tendon: str = "rigid") -> TendonLaw:
         """The law of `tendons` (default all of the full shoulder's) from `<folder>/<tendon>_<muscle_model>.npz`
         (default models/muscles_full); a condition's `geometry` (`full_arm.GEOMETRIES`: ld_transfer) reads its
         rerouted tendons from its own folder. line_of_action "band": those of its tendons with a band table
         (`band_lines.BAND_TENDONS`, `<folder>/<tendon>_band.npz`) act along the FEM band's line, the others along
         their MJCF paths; "band_fibres": the same lines, and the band tendons' force their fibres' (`band_lines`: each
-        fibre at its own length, `<folder>/<tendon>_fibres.npz`); "mjcf" (default): all along their MJCF paths."""
+        fibre at its own length, `<folder>/<tendon>_fibres.npz`); "mjcf" (default): all along their MJCF paths.
+        tendon "compliant": the parent's compliant tendon in series with every table (`tendon_compliance`); "rigid"
+        (default): the tables as built, the tendon rigid at its slack length."""
+        from shoulder_bench import tendon_compliance
         from shoulder_bench.band_lines import BAND_TENDONS, LINES, BandLines
         from shoulder_bench.full_arm import GEOMETRIES, TENDONS
 
         if line_of_action not in LINES:
             raise ValueError(f"line_of_action {line_of_action!r}: choose one of {', '.join(LINES)}")
+        if tendon not in tendon_compliance.TENDONS:
+            raise ValueError(f"tendon {tendon!r}: choose one of {', '.join(tendon_compliance.TENDONS)}")
 
         check_muscle_model(muscle_model)
         names = tuple(TENDONS if tendons is None else tendons)
@@ -137,7 +143,7 @@ class TendonLaw:
             table = TendonTable.load(p)
             if table.muscle != t:
                 raise ValueError(f"muscle table {p} is for {table.muscle!r}, not {t!r}")
-            tables.append(table)
+            tables.append(tendon_compliance.compliant_table(table) if tendon == "compliant" else table)
         law = cls(tables, groups)
         if line_of_action in ("band", "band_fibres"):
             law.lines = BandLines.load([t for t in names if t in BAND_TENDONS], folder, line_of_action == "band_fibres")

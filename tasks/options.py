@@ -45,6 +45,8 @@ OPTIONS = {
                       "line of action, their force read at the band's length (shoulder_bench.band_lines), the others "
                       "(dmi, cor) along their MJCF paths; 'band_fibres' the same, each band tendon's force the mean "
                       "of its band's fibres', each at its own length",
+    "tendon": "'rigid' or 'compliant' (3-DOF tasks only): 'compliant' puts the MoBL-ARMS parent's compliant tendon "
+              "(F0 at 3.3 % strain) in series with every FEM sheet (shoulder_bench.tendon_compliance)",
 }
 
 # each option's default, as `shoulder-bench tasks --options` shows it (None where the task decides)
@@ -52,14 +54,14 @@ DEFAULTS = {"split": "train", "seed": None, "trajectory": None, "muscle_model": 
             "alpha": protocol.DEFAULT_ALPHA, "omega_max": protocol.DEFAULT_OMEGA_MAX, "tracking_only": None,
             "init": "hold", "joint_damping": 0.0, "delay_frames": 0, "obs_noise_deg": 0.0, "condition": None,
             "tear_fraction": None, "weakness_fraction": None, "activation_dynamics": False, "randomize": None,
-            "fatigue": False, "line_of_action": "mjcf"}
+            "fatigue": False, "line_of_action": "mjcf", "tendon": "rigid"}
 
 
 # the options a command line may set with --option KEY=VALUE (split, seed, trajectory and muscle model have flags of
 # their own or are the command's to choose)
 COMMAND_LINE = ("alpha", "omega_max", "tracking_only", "init", "joint_damping", "delay_frames", "obs_noise_deg",
                 "condition", "tear_fraction", "weakness_fraction", "activation_dynamics", "randomize", "fatigue",
-                "line_of_action")
+                "line_of_action", "tendon")
 
 
 def assignments(pairs, flag: str = "--option", valid=COMMAND_LINE) -> dict:

@@ -12,7 +12,8 @@ finite state, a MuJoCo instability, a coordinate more than VALID_MARGIN_DEG past
 with the 1-DOF tasks' penalty.
 
 Options (OPTIONS): the reward's alpha and omega_max, init, workspace, line_of_action ("band": the FEM bands' line of
-action, `band_lines`; "band_fibres": and their fibres' force), what the agent senses, delay_frames and obs_noise_deg
+action, `band_lines`; "band_fibres": and their fibres' force), tendon ("compliant": the parent's tendon in series with
+every FEM sheet, `tendon_compliance`), what the agent senses, delay_frames and obs_noise_deg
 (`sensing`, as the 1-DOF tasks'), and randomize (`shoulder_bench.randomization`, as the 1-DOF tasks': each episode's
 muscle strengths through the actuators' gear, all of a muscle's tendons by one draw, on the band's line of action too
 (`native.passive` reads the gear), the humerus mass and a load at the elbow, MoBL's humerus frame as the v2 arm's),
@@ -42,6 +43,7 @@ from shoulder_bench import (
     full_arm,
     protocol,
     statics_full,
+    tendon_compliance,
     trajectory,
     trajectory3,
 )
@@ -56,9 +58,10 @@ VALID_MARGIN_DEG = 30.0  # as the 1-DOF tasks' (arm.VALID_MARGIN_DEG)
 WORKSPACES = ("3dof", "scapular_plane")
 SCAPULAR_PLANE_DEG = 30.0
 INITS = ("hold", "zero")
-OPTIONS = ("alpha", "omega_max", "init", "workspace", "muscle_model", "line_of_action", "delay_frames",
+OPTIONS = ("alpha", "omega_max", "init", "workspace", "muscle_model", "line_of_action", "tendon", "delay_frames",
            "obs_noise_deg", "randomize", "condition", "tear_fraction", "weakness_fraction", "activation_dynamics",
            "fatigue")  # what the 3-DOF tasks accept
+LAW_OPTIONS = ("line_of_action", "tendon")  # the options beside the condition that make the muscles' law (law_for)
 
 
 def scapular(elevation_deg, name: str = "") -> trajectory3.Trajectory3:
@@ -123,9 +126,9 @@ class Track3D(SingleEnv, control.Task):
 
     def __init__(self, muscles=full_arm.MUSCLES, discrete=False, split="train", trajectory_=None,
                  alpha=protocol.DEFAULT_ALPHA, omega_max=protocol.DEFAULT_OMEGA_MAX, init="hold", workspace="3dof",
-                 line_of_action="mjcf", delay_frames=0, obs_noise_deg=0.0, randomize=None, condition=None,
-                 tear_fraction=None, weakness_fraction=None, activation_dynamics=False, fatigue=False, random=None,
-                 **unknown):
+                 line_of_action="mjcf", tendon="rigid", delay_frames=0, obs_noise_deg=0.0, randomize=None,
+                 condition=None, tear_fraction=None, weakness_fraction=None, activation_dynamics=False, fatigue=False,
+                 random=None, **unknown):
         super().__init__()
         if unknown:
             raise ValueError(f"option(s) {sorted(unknown)} are not offered on the 3-DOF tasks (yet); they accept "
@@ -138,6 +141,7 @@ class Track3D(SingleEnv, control.Task):
         self.init = opt.choice("init", init, INITS)
         self.workspace = opt.choice("workspace", workspace, WORKSPACES)
         self.line_of_action = opt.choice("line_of_action", line_of_action, band_lines.LINES)
+        self.tendon = opt.choice("tendon", tendon, tendon_compliance.TENDONS)
         self.geometry = conditions.geometry(condition)  # ld_transfer: its model and tables (full_arm.GEOMETRIES)
         # sensing, condition, physiology; the generators (SingleEnv)
         self._setup_options(delay_frames, obs_noise_deg, condition, tear_fraction, weakness_fraction,
@@ -228,11 +232,14 @@ class Track3D(SingleEnv, control.Task):
 
 
 def law_for(muscle_model: str = "fem", line_of_action: str = "mjcf", factors: dict | None = None,
-            geometry: str | None = None) -> TendonLaw:
+            geometry: str | None = None, tendon: str = "rigid") -> TendonLaw:
     """The full shoulder's law: its muscles along `line_of_action`, each muscle's tabled force (active and passive)
-    times its factor of a condition (`conditions.factors`; none: intact); a condition's `geometry`
-    (`conditions.geometry`: ld_transfer) reads its rerouted tendons' tables (`full_arm.GEOMETRIES`)."""
-    law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS, line_of_action=line_of_action, geometry=geometry)
+    with its `tendon` ("rigid" or "compliant": `tendon_compliance`) times its factor of a condition
+    (`conditions.factors`; none: intact; the tendon's curve is normalised by F0, so scaling after the compliance is
+    the same as scaling before it); a condition's `geometry` (`conditions.geometry`: ld_transfer) reads its rerouted
+    tendons' tables (`full_arm.GEOMETRIES`)."""
+    law = TendonLaw.load(muscle_model, groups=full_arm.ACTUATORS, line_of_action=line_of_action, geometry=geometry,
+                         tendon=tendon)
     return law.scaled(factors) if factors else law
 
 
@@ -244,19 +251,19 @@ def pose_for(geometry: str | None = None) -> full_arm.Pose:
 
 def condition_law(condition: str | None = None, muscles=full_arm.MUSCLES, tear_fraction: float | None = None,
                   weakness_fraction: float | None = None, muscle_model: str = "fem",
-                  line_of_action: str = "mjcf") -> tuple[TendonLaw, full_arm.Pose]:
+                  line_of_action: str = "mjcf", tendon: str = "rigid") -> tuple[TendonLaw, full_arm.Pose]:
     """(law, posed model) of the full shoulder under a shoulder `condition` of a task with `muscles`: its factors
     (`conditions.factors`) scale the law, its geometry (`conditions.geometry`: ld_transfer) gives both the rerouted
     tables and the rerouted model; what the reference controller, the board's co-contraction and the statics of
     `surgery` and `benchmarks/workspace_3dof.py` plan with."""
     geometry = conditions.geometry(condition)
     factors = conditions.factors(condition, muscles, tear_fraction, weakness_fraction)
-    return law_for(muscle_model, line_of_action, factors, geometry), pose_for(geometry)
+    return law_for(muscle_model, line_of_action, factors, geometry, tendon), pose_for(geometry)
 
 
 def make_physics(muscle_model: str = "fem", line_of_action: str = "mjcf", factors: dict | None = None,
-                 geometry: str | None = None) -> Physics3:
-    law = law_for(muscle_model, line_of_action, factors, geometry)
+                 geometry: str | None = None, tendon: str = "rigid") -> Physics3:
+    law = law_for(muscle_model, line_of_action, factors, geometry, tendon)
     model = full_arm.compile_full(geometry)
     attach_law(model, law)
     install_callbacks()
@@ -272,6 +279,7 @@ def make_env(muscles, discrete=False, split="train", seed=None, trajectory=None,
         raise ValueError(f"muscle_model {muscle_model!r}: the full shoulder has FEM tables only ('fem')")
     task = Track3D(muscles, discrete=discrete, split=split, trajectory_=trajectory3.as_trajectory(trajectory),
                    random=seed, **options)
-    return control.Environment(make_physics(muscle_model, task.line_of_action, task.factors, task.geometry), task,
+    return control.Environment(make_physics(muscle_model, task.line_of_action, task.factors, task.geometry,
+                                            task.tendon), task,
                                time_limit=float("inf"),
                                control_timestep=protocol.FRAME_S)

@@ -47,7 +47,8 @@ class VecEnv3(Lockstep):
         self.num_actions = self.n
         self.cfg = {"task": name, "muscle_model": muscle_model, **options}
         # the task's condition: its factors and its geometry (ld_transfer: its model and tables)
-        self.law = law_for(muscle_model, self.task.line_of_action, self.task.factors, self.task.geometry)
+        self.law = law_for(muscle_model, self.task.line_of_action, self.task.factors, self.task.geometry,
+                           self.task.tendon)
         # MuJoCo's RK4 with the compiled callbacks, one rollout per frame (the law reads each tendon's length);
         # randomize: one model per copy, compiled without the textures (randomization.physics_only_xml)
         model_file = full_arm.model_file(self.task.geometry)

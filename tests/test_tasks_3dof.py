@@ -45,7 +45,8 @@ def test_gymnasium_check_env(name):
 
 
 # band: the passive callback in rollout's threads too; the sensing options: the same delay buffer and noise draws
-@pytest.mark.parametrize("options", [{}, {"line_of_action": "band"}, {"delay_frames": 2, "obs_noise_deg": 0.5}])
+@pytest.mark.parametrize("options", [{}, {"line_of_action": "band"}, {"delay_frames": 2, "obs_noise_deg": 0.5},
+                                     {"tendon": "compliant"}])
 def test_batched_env_follows_the_single_env(options):
     env = shoulder_bench.load("track_3dof", split="test", seed=11, **options)
     ts = env.reset()

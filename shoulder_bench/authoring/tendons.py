@@ -35,10 +35,10 @@ import numpy as np
 from shoulder_bench.authoring.kinematics import ShoulderPoser
 from shoulder_bench.authoring.mobl_data import MUSCLES, REFERENCE_DIR
 from shoulder_bench.model import MODELS_DIR
+from shoulder_bench.tendon_compliance import parent_curve  # the parent's SimmSpline curves (extract script)
 
 PARENT_FILE = REFERENCE_DIR / "mobl_arms_parent_muscles.csv"
 PARAMETERS_FILE = REFERENCE_DIR / "muscle_parameters.csv"
-CURVES_FILE = REFERENCE_DIR / "mobl_arms_parent_curves.csv"  # the parent's SimmSpline curves (extract script)
 MODEL_V2 = MODELS_DIR / "shoulder_v2.xml"
 BAND = (0.85, 1.15)  # the model-v2 issue's physiological range of fibre stretch
 TASK_RANGE = (0.0, 120.0)  # degrees of elevation over which the band is checked
@@ -62,18 +62,6 @@ def load_parent(path: Path | str = PARENT_FILE) -> dict[str, FibreParams]:
         return {r["muscle"]: FibreParams(float(r["max_isometric_force_N"]), float(r["optimal_fiber_length_m"]),
                                          float(r["tendon_slack_length_m"]), float(r["pennation_angle_rad"]),
                                          r["class"]) for r in csv.DictReader(f)}
-
-
-def parent_curve(muscle: str, curve: str = "passive_force_length_curve", path: Path | str = CURVES_FILE):
-    """The parent's curve of `muscle` (MoBL name, e.g. SUPSP) as knots (x, y), ascending x, repeated x dropped."""
-    with open(path, newline="") as f:
-        rows = [r for r in csv.DictReader(f) if r["muscle"] == muscle and r["curve"] == curve]
-    if not rows:
-        raise ValueError(f"{path}: no {curve} for {muscle}")
-    rows.sort(key=lambda r: int(r["knot"]))
-    x, y = np.array([float(r["x"]) for r in rows]), np.array([float(r["y"]) for r in rows])
-    keep = np.r_[True, np.diff(x) > 0]
-    return x[keep], y[keep]
 
 
 def parent_passive(lam, muscle: str) -> np.ndarray:
