@@ -2,6 +2,7 @@
 misses")
 
     .venv/bin/python benchmarks/band_branches.py --tendon ssp [--n 150] [--seed 0]   (≈ 5 s a pose for ssp)
+    .venv/bin/python benchmarks/band_branches.py --tendon pec2 --at 82.5 75 -37.5 [--at P E R ...]
 
 At N poses drawn from the tendon's table grid (`bands.grid_poses`, fixed seed) the band is solved as
 `bands.least_energy` solves it with all six starts (the ramp at p, and Newton at p from the ramp's at p +-
@@ -9,7 +10,8 @@ PROBE_FRACTION of the tasks' step along each coordinate, `bands.probe_offsets`),
 a start other than the ramp reached another equilibrium of lower energy (lower by more than LOWER_J, its moment arms
 more than SAME_MM from the ramp's: closer ones are the same equilibrium to the solver's tolerance), by how much the
 arms differ and which starts found it: what the least-energy rule would change in a table built by the ramp, and
-whether fewer starts would do.
+whether fewer starts would do. Where the ramp finds no equilibrium, it reports which of the other starts reach one
+at p (and the band's moment arms there). --at: these poses (deg) instead of the drawn ones.
 """
 from __future__ import annotations
 
@@ -31,9 +33,13 @@ def main() -> None:
     ap.add_argument("--tendon", choices=FOOTPRINT_TENDONS, required=True)
     ap.add_argument("--n", type=int, default=150, help="poses drawn from the table's grid")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--at", nargs=3, type=float, action="append", metavar=("PLANE", "ELEVATION", "ROTATION"),
+                    help="a pose (deg) to solve instead of the drawn ones; repeat for more")
     args = ap.parse_args()
     poses = grid_poses(args.tendon)
     poses = poses[np.sort(np.random.default_rng(args.seed).choice(len(poses), min(args.n, len(poses)), False))]
+    if args.at:
+        poses = np.array(args.at, dtype=float)
     labels = [f"{s}{c}" for s in "+-" for c in ("plane", "elevation", "rotation")]  # probe_offsets' order
     sheet = FootprintSheet(args.tendon, "full", pose=full_arm.Pose(), rest="pose",
                            surface=surface(args.tendon))
@@ -42,7 +48,15 @@ def main() -> None:
         try:
             ramp = sheet.solve_from(p, sheet.solve(p)["nodes"])
         except NoConvergence:
-            print(f"{tuple(p.tolist())}: the ramp finds no equilibrium; skipped")
+            reached = []
+            for label, start in zip(labels, p + probe_offsets()):
+                try:
+                    sol = sheet.solve_from(p, sheet.solve(start)["nodes"])
+                except NoConvergence:
+                    continue
+                reached.append(f"{label} (arms {np.round(sol['moment_arm_m'] * 1e3, 1).tolist()} mm)")
+            print(f"{tuple(p.tolist())}: the ramp finds no equilibrium; "
+                  + (f"from the other starts: {', '.join(reached)}" if reached else "nor does any other start"))
             continue
         best, by = ramp, []
         for label, start in zip(labels, p + probe_offsets()):
