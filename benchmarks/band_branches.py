@@ -47,7 +47,7 @@ def main() -> None:
     for p in poses:
         try:
             ramp = sheet.solve_from(p, sheet.solve(p)["nodes"])
-        except NoConvergence:
+        except NoConvergence as failure:
             reached = []
             for label, start in zip(labels, p + probe_offsets()):
                 try:
@@ -55,7 +55,7 @@ def main() -> None:
                 except NoConvergence:
                     continue
                 reached.append(f"{label} (arms {np.round(sol['moment_arm_m'] * 1e3, 1).tolist()} mm)")
-            print(f"{tuple(p.tolist())}: the ramp finds no equilibrium; "
+            print(f"{tuple(p.tolist())}: the ramp finds no equilibrium ({failure}); "
                   + (f"from the other starts: {', '.join(reached)}" if reached else "nor does any other start"))
             continue
         best, by = ramp, []
