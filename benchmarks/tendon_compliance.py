@@ -10,9 +10,12 @@ the MJCF paths (v = 0): the tendon's stretch at a = 1 (mm, and as a fraction of 
 are), and the compliant law's force against the rigid one's at a = 1 and a = 0 (% of F0: median and largest
 |difference|, and the mean signed one); and the relaxed arm's rest angle along elevation in the coronal and the
 scapular plane (activations 0, rotation 0, girdle coupled: `model validate`'s force section on the FEM tables,
-`forces_full.section`) with either tendon. No solving beyond the tables; a few seconds. --figure: force against
-musculotendon length, rigid and compliant, at a = 1 and 0 for the four tendons whose active force changes most (by
-the largest change), the lengths the tasks' grid reaches shaded.
+`forces_full.section`) with either tendon; and what the law leaves out, the fibre's own lengthening rate: along the
+test set's targets (their poses and rates on the MJCF paths), the fibre's share phi = 1 / (1 + F_r' s') of the path's
+rate (F_r' the sheet's stiffness, s' the tendon's compliance, at a = 1) and how much the force at a = 1 would change
+if the force-velocity factor read phi L' instead of L'. No solving beyond the tables; about 20 s. --figure: force
+against musculotendon length, rigid and compliant, at a = 1 and 0 for the four tendons whose active force changes
+most (by the largest change), the lengths the tasks' grid reaches shaded.
 """
 from __future__ import annotations
 
@@ -44,6 +47,39 @@ def study(tendons, refine: int = tendon_compliance.REFINE) -> dict:
                   "force_pct": {a: 100 * (force[compliant, a][:, c] - force[rigid, a][:, c]) / f0 for a in (1.0, 0.0)},
                   "stretch_mm": 1e3 * tendon_compliance.stretch(table, force[compliant, 1.0][:, c]),
                   "l_opt_mm": 1e3 * l_opt}
+    return out
+
+
+def fibre_rate(tendons, every: int = 4) -> dict:
+    """{tendon: (phi (P,), force change % of F0 (P,))} at a = 1 along the test set's targets (every `every`-th
+    frame): the fibre's share phi of the path's lengthening rate with the compliant tendon, and the compliant law's
+    force with the force-velocity factor at phi L' less that at L' (what the law, reading L', leaves out)."""
+    from shoulder_bench import trajectory3
+
+    test = trajectory3.load_test_set()
+    poses = np.concatenate([t.angle_deg[::every] for t in test])
+    rates = np.radians(np.concatenate([t.velocity_deg_s[::every] for t in test]))
+    lengths, arms = full_arm.Pose().tendon_geometry(poses, tendons)
+    speed = -np.einsum("pnk,pk->pn", arms, rates)  # the paths' lengthening rates, m/s
+    law = TendonLaw.load("fem", tendons, tendon="compliant")
+    ones = np.ones_like(lengths)
+    force = law.force(lengths, np.zeros_like(lengths), ones)
+    out, h = {}, 1e-5
+    for c, t in enumerate(tendons):
+        table = TendonTable.load(table_path(t, "fem"))
+        fn, eps = tendon_compliance.strain_curve(table.meta["parent_muscle"])
+        f0 = float(table.meta["F0_N"])
+        sheet = lengths[:, c] - tendon_compliance.stretch(table, force[:, c])
+        stiffness = (tendon_compliance.read(table, sheet + h, 1.0)
+                     - tendon_compliance.read(table, sheet - h, 1.0)) / (2 * h)  # N/m
+        f = force[:, c] / f0
+        slope = (np.interp(f + 1e-6, fn, eps) - np.interp(f, fn, eps)) / 1e-6  # d strain / d (F / F0)
+        compliance = float(table.meta["tendon_slack_length_m"]) * slope / f0  # m/N
+        out[t] = [1.0 / (1.0 + stiffness * compliance)]
+    shared = speed * np.stack([out[t][0] for t in tendons], axis=1)
+    change = law.force(lengths, shared, ones) - law.force(lengths, speed, ones)
+    for c, t in enumerate(tendons):
+        out[t].append(100 * change[:, c] / float(law.tables[c].meta["F0_N"]))
     return out
 
 
@@ -117,6 +153,10 @@ def main(argv=None) -> int:
             cells.append(f"{np.median(np.abs(d)):.2f} / {np.abs(d).max():.2f} / {d.mean():+.2f}")
         print(f"{t} | " + " | ".join(cells))
     print(f"largest table error {worst:.3f} % of F0 (bound {BOUND_PCT:g} %)")
+    print("the fibre's own rate (test-set targets, a = 1): tendon | share phi of the path's rate: median / least | "
+          "force change if FV read it, % F0: median |d| / largest |d|")
+    for t, (phi, d) in fibre_rate(tuple(args.tendon)).items():
+        print(f"{t} | {np.median(phi):.3f} / {phi.min():.3f} | {np.median(np.abs(d)):.3f} / {np.abs(d).max():.3f}")
     relaxed = rest()
     for p, (r_deg, r_nm) in relaxed["rigid"].items():
         c_deg, c_nm = relaxed["compliant"][p]
