@@ -95,9 +95,14 @@ def law_options(options: dict | None) -> dict:
     return {k: v for k, v in (options or {}).items() if k in LAW_OPTIONS + CONDITION_OPTIONS}
 
 
-def lines_of(options: dict | None) -> str:
-    """The line of action a 3-DOF run's task options simulate (`band_lines.LINES`)."""
-    return (options or {}).get("line_of_action", "mjcf")
+def law_of(options: dict | None) -> str:
+    """The muscles' law a 3-DOF run's task options simulate beyond the defaults (`track3d.LAW_OPTIONS`: line of
+    action, tendon), as sorted JSON ("{}": the default law)."""
+    from shoulder_bench.tasks.options import DEFAULTS
+    from shoulder_bench.tasks.track3d import LAW_OPTIONS
+
+    return json.dumps({k: v for k, v in (options or {}).items() if k in LAW_OPTIONS and v != DEFAULTS[k]},
+                      sort_keys=True)
 
 
 def run_folders(runs: Path) -> list[Path]:
@@ -195,11 +200,11 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
             sets[task] = fixed_test_set(task)
         return sets[task]
     groups: dict[tuple[str, str], tuple[list, list]] = defaultdict(lambda: ([], []))
-    torques: dict[str, TorqueLaw3] = {}  # per line of action and condition
-    lines: dict[str, set] = defaultdict(set)  # task -> the lines of action its rows simulate
+    torques: dict[str, TorqueLaw3] = {}  # per law (line of action, tendon) and condition
+    laws: dict[str, set] = defaultdict(set)  # task -> the muscles' laws its rows simulate (`law_of`)
 
     def torques_for(task: str, options: dict | None) -> TorqueLaw3:
-        lines[task].add(lines_of(options))
+        laws[task].add(law_of(options))
         key = json.dumps(law_options(options), sort_keys=True)
         if key not in torques:
             torques[key] = TorqueLaw3(**law_options(options))
@@ -228,13 +233,13 @@ def collect(runs: Path | None, progress: bool = False, test: list | None = None,
     rows = [_row(task, algo + _variant(setting, [s for t, a, s in groups if (t, a) == (task, algo)]),
                  *groups[(task, algo, setting)]) for task, algo, setting in sorted(groups)]
     for task in sorted({t for t, _, _ in groups if not TASKS_3DOF[t][1]}):  # the continuous tasks' reference,
-        for key in sorted(lines[task], reverse=True):  # on each line of action its rows simulate (mjcf first)
-            options = None if key == "mjcf" else {"line_of_action": key}
-            controller = ReferenceController3(task, line_of_action=key)
+        for key in sorted(laws[task], key=lambda k: (len(k), k)):  # with each law its rows simulate (default first)
+            options = json.loads(key) or None
+            controller = ReferenceController3(task, **(options or {}))
             score = score_of(controller, task, test_of(task), options=options, law=torques_for(task, options))
             score["suites"] = suite_scores(controller, task, specs, options, suite_sets)
-            rows.append(_row(task, "reference controller" + ("" if options is None else f" (line_of_action={key})"),
-                             [score], []))
+            named = "" if options is None else " (" + ", ".join(f"{k}={v}" for k, v in options.items()) + ")"
+            rows.append(_row(task, "reference controller" + named, [score], []))
     return rows
 
 

@@ -78,7 +78,7 @@ def test_mujoco_applies_the_compliant_law():
 
 
 def test_the_option_reaches_the_task_and_its_reference_controller():
-    from shoulder_bench.eval.board3 import law_options
+    from shoulder_bench.eval.board3 import law_of, law_options
     from shoulder_bench.eval.reference3 import ReferenceController3
 
     env = shoulder_bench.load("track_3dof", tendon="compliant", seed=0)
@@ -87,6 +87,9 @@ def test_the_option_reaches_the_task_and_its_reference_controller():
     ctrl = ReferenceController3("track_3dof", tendon="compliant")
     assert all("tendon" in t.meta for t in ctrl.law.tables)
     assert law_options({"tendon": "compliant", "alpha": 0.1}) == {"tendon": "compliant"}
+    # the board's reference rows: one per law its runs simulate, the defaults left out of the key
+    assert law_of({"tendon": "compliant", "line_of_action": "mjcf", "alpha": 0.1}) == '{"tendon": "compliant"}'
+    assert law_of(None) == law_of({"tendon": "rigid"}) == "{}"
     with pytest.raises(ValueError, match="tendon must be one of 'rigid', 'compliant'"):
         shoulder_bench.load("track_3dof", tendon="soft")
     with pytest.raises(ValueError, match="3-DOF tasks only"):
