@@ -213,3 +213,18 @@ def test_mujoco_applies_the_fibres_force_with_either_callback():
     np.testing.assert_allclose(band.actuator_force[others], d.actuator_force[others], rtol=1e-12)
     gap = np.abs(band.actuator_force[ids] - d.actuator_force[ids])[cols]
     assert gap.max() > 1.0  # N: the fibres change some band tendon's force here
+
+
+def test_mujoco_applies_the_compliant_tendons_law():
+    """tendon="compliant" (`tendon_compliance`): the compiled callbacks apply the compliant tables' force, every
+    tendon's less than with the rigid tendon."""
+    out = {}
+    for tendon in ("rigid", "compliant"):
+        law = TendonLaw.load("fem", groups=full_arm.ACTUATORS, tendon=tendon)
+        m, d, _ = _forward(law, POSE, 0.8)
+        ids = [m.actuator(t).id for t in law.actuators]
+        f = law.force(d.actuator_length[ids][None], d.actuator_velocity[ids][None],
+                      np.full((1, len(law.muscles)), 0.8))[0]
+        np.testing.assert_allclose(-d.actuator_force[ids], f, rtol=1e-9)
+        out[tendon] = f
+    assert np.all(out["compliant"] <= out["rigid"] + 1e-9) and (out["rigid"] - out["compliant"]).max() > 5.0

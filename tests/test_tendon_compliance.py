@@ -1,15 +1,11 @@
 """The parent's compliant tendon in series with the full shoulder's FEM sheets (`tendon="compliant"`)."""
-import mujoco
 import numpy as np
 import pytest
 
 import shoulder_bench
 from shoulder_bench import full_arm
 from shoulder_bench import tendon_compliance as tc
-from shoulder_bench.model import attach_law, install_callbacks
-from shoulder_bench.tendon_law import TendonLaw, TendonTable, table_path
-
-POSE = np.array([[40.0, 70.0, 20.0]])
+from shoulder_bench.tendon_law import TendonTable, table_path
 
 
 def _table(tendon: str) -> TendonTable:
@@ -53,28 +49,6 @@ def test_the_compliant_tables_read_the_equilibrium_between_their_knots():
         table = _table(t)
         err = tc.interpolation_error(table, tc.compliant_table(table))
         assert err["max_F0"] < 0.005, (t, err)  # benchmarks/tendon_compliance.py's bound
-
-
-def test_mujoco_applies_the_compliant_law():
-    out = {}
-    for tendon in ("rigid", "compliant"):
-        law = TendonLaw.load("fem", groups=full_arm.ACTUATORS, tendon=tendon)
-        m = full_arm.compile_full()
-        attach_law(m, law)
-        install_callbacks(native=True)
-        try:
-            pose, d = full_arm.Pose(m), mujoco.MjData(m)
-            d.qpos[:] = pose.qpos(POSE)[0]
-            d.ctrl[:] = 0.8
-            mujoco.mj_forward(m, d)
-        finally:
-            install_callbacks()
-        ids = [m.actuator(t).id for t in law.actuators]
-        L = d.actuator_length[ids][None]
-        f = law.force(L, d.actuator_velocity[ids][None], np.full((1, len(law.muscles)), 0.8))[0]
-        np.testing.assert_allclose(-d.actuator_force[ids], f, rtol=1e-9)
-        out[tendon] = f
-    assert np.all(out["compliant"] <= out["rigid"] + 1e-9) and (out["rigid"] - out["compliant"]).max() > 5.0
 
 
 def test_the_option_reaches_the_task_and_its_reference_controller():
