@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from shoulder_bench.eval import stats
+from shoulder_bench.eval.evaluate import law_options
 from shoulder_bench.eval.leaderboard import setting_of
 
 COLUMNS = ("task", "algorithm", "seeds", "success", "orientation MAE (deg) [95 % CI]", "orientation RMSE (deg)",
@@ -85,14 +86,6 @@ def suite_scores(policy, task: str, specs: list[str], options: dict | None, sets
             sets[(spec, task)] = load_suite(spec, task)
         out[spec] = evaluate(policy, task, sets[(spec, task)], options=options_for(spec, options))["mae_deg"]
     return out
-
-
-def law_options(options: dict | None) -> dict:
-    """The task options of a 3-DOF run that decide its muscles' torques: line_of_action, tendon and the condition."""
-    from shoulder_bench.eval.evaluate import CONDITION_OPTIONS
-    from shoulder_bench.tasks.track3d import LAW_OPTIONS
-
-    return {k: v for k, v in (options or {}).items() if k in LAW_OPTIONS + CONDITION_OPTIONS}
 
 
 def law_of(options: dict | None) -> str:

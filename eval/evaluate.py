@@ -104,6 +104,15 @@ def check_policy_file(spec: str) -> Path:
 CONDITION_OPTIONS = ("condition", "tear_fraction", "weakness_fraction")  # what the reference controller plans with
 
 
+def law_options(options: dict | None) -> dict:
+    """The task options of a 3-DOF run that decide its muscles' forces: the law's (`track3d.LAW_OPTIONS`: line of
+    action, tendon) and the shoulder condition; what the reference controller plans with and the board's torques are
+    computed with."""
+    from shoulder_bench.tasks.track3d import LAW_OPTIONS
+
+    return {k: v for k, v in (options or {}).items() if k in LAW_OPTIONS + CONDITION_OPTIONS}
+
+
 def policy_for(spec: str, task: str | None = None, options: dict | None = None) -> tuple[object, dict, str]:
     """(policy, metadata, task) for a policy file, run folder, `pretrained:NAME` or `reference` (the model-based
     controller, on `task`, default abduction_4m, planning with the shoulder condition of the task `options`, if any).
@@ -117,11 +126,9 @@ def policy_for(spec: str, task: str | None = None, options: dict | None = None) 
         task = check_name(task or "abduction_4m")
         if is_3dof(task):
             from shoulder_bench.eval.reference3 import ReferenceController3
-            from shoulder_bench.tasks.track3d import LAW_OPTIONS
 
             # it plans with the muscles' law (line of action, tendon) and the condition the task simulates
-            law = {k: v for k, v in (options or {}).items() if k in LAW_OPTIONS + CONDITION_OPTIONS}
-            return ReferenceController3(task, **law), {"task": task, "algo": "reference"}, task
+            return ReferenceController3(task, **law_options(options)), {"task": task, "algo": "reference"}, task
         cond = {k: v for k, v in (options or {}).items() if k in CONDITION_OPTIONS}
         return ReferenceController(task, **cond), {"task": task, "algo": "reference"}, task
     from shoulder_bench.train.policy import load_policy

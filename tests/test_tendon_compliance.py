@@ -52,7 +52,8 @@ def test_the_compliant_tables_read_the_equilibrium_between_their_knots():
 
 
 def test_the_option_reaches_the_task_and_its_reference_controller():
-    from shoulder_bench.eval.board3 import law_of, law_options
+    from shoulder_bench.eval.board3 import law_of
+    from shoulder_bench.eval.evaluate import law_options
     from shoulder_bench.eval.reference3 import ReferenceController3
 
     env = shoulder_bench.load("track_3dof", tendon="compliant", seed=0)
