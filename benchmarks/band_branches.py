@@ -2,7 +2,7 @@
 misses")
 
     .venv/bin/python benchmarks/band_branches.py --tendon ssp [--n 150] [--seed 0]   (≈ 5 s a pose for ssp)
-    .venv/bin/python benchmarks/band_branches.py --tendon pec2 --at 82.5 75 -37.5 [--at P E R ...]
+    .venv/bin/python benchmarks/band_branches.py --tendon pec2 --at 82.5 75 -37.5 [--at P E R ...] [--activation A]
 
 At N poses drawn from the tendon's table grid (`bands.grid_poses`, fixed seed) the band is solved as
 `bands.least_energy` solves it with all six starts (the ramp at p, and Newton at p from the ramp's at p +-
@@ -11,7 +11,8 @@ a start other than the ramp reached another equilibrium of lower energy (lower b
 more than SAME_MM from the ramp's: closer ones are the same equilibrium to the solver's tolerance), by how much the
 arms differ and which starts found it: what the least-energy rule would change in a table built by the ramp, and
 whether fewer starts would do. Where the ramp finds no equilibrium, it reports which of the other starts reach one
-at p (and the band's moment arms there). --at: these poses (deg) instead of the drawn ones.
+at p (and the band's moment arms there). --at: these poses (deg) instead of the drawn ones; --activation: every
+solve at this level (default 1: the tables' level), the ramp's from rest to it.
 """
 from __future__ import annotations
 
@@ -35,7 +36,11 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--at", nargs=3, type=float, action="append", metavar=("PLANE", "ELEVATION", "ROTATION"),
                     help="a pose (deg) to solve instead of the drawn ones; repeat for more")
+    ap.add_argument("--activation", type=float, default=1.0, help="the level every band is solved at (0, 1]")
     args = ap.parse_args()
+    if not 0.0 < args.activation <= 1.0:
+        ap.error(f"--activation {args.activation:g}: give a level in (0, 1]")
+    a = args.activation
     poses = grid_poses(args.tendon)
     poses = poses[np.sort(np.random.default_rng(args.seed).choice(len(poses), min(args.n, len(poses)), False))]
     if args.at:
@@ -46,12 +51,12 @@ def main() -> None:
     lower, shift, found_by = 0, [], {label: 0 for label in labels}
     for p in poses:
         try:
-            ramp = sheet.solve_from(p, sheet.solve(p)["nodes"])
+            ramp = sheet.solve_from(p, sheet.solve(p, a)["nodes"], a)
         except NoConvergence as failure:
             reached = []
             for label, start in zip(labels, p + probe_offsets()):
                 try:
-                    sol = sheet.solve_from(p, sheet.solve(start)["nodes"])
+                    sol = sheet.solve_from(p, sheet.solve(start, a)["nodes"], a)
                 except NoConvergence:
                     continue
                 reached.append(f"{label} (arms {np.round(sol['moment_arm_m'] * 1e3, 1).tolist()} mm)")
@@ -61,7 +66,7 @@ def main() -> None:
         best, by = ramp, []
         for label, start in zip(labels, p + probe_offsets()):
             try:
-                sol = sheet.solve_from(p, sheet.solve(start)["nodes"])
+                sol = sheet.solve_from(p, sheet.solve(start, a)["nodes"], a)
             except NoConvergence:
                 continue
             other = np.abs(sol["moment_arm_m"] - ramp["moment_arm_m"]).max() * 1e3 > SAME_MM

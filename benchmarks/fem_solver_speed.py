@@ -1,7 +1,7 @@
 """The FEM solver's speed, side by side in one run (docs/fem.md "Newton"):
 
     .venv/bin/python benchmarks/fem_solver_speed.py [--tendon T ...] [--poses N] [--full-tendon T] [--repeats R]
-        [--elements T ...] [--kernels] [--layouts A B] [--max-iter A B] [--topology-cache]
+        [--elements T ...] [--kernels] [--layouts A B] [--max-iter A B] [--topology-cache] [--fallback]
 
 1. How the sheets' Newton systems are factorised (`MuscleProblem.layout`, `assembly.LAYOUTS`; `--layouts A B`,
    default COLAMD NATURAL): SuperLU with COLAMD (SciPy's default) or the natural order, LAPACK's banded LU
@@ -29,6 +29,10 @@
 5. The sheet's connectivity worked out once (`--topology-cache`; `solver.sheet_topology`): each band tendon's N grid
    poses solved with its cache and with a cache that keeps nothing (every problem works out its regularisation and
    predictor weight anew, as before), alternating; the results should not differ at all.
+6. The starts' fallback (`--fallback`; `bands.FALLBACK`): each band tendon's N grid poses solved with its tendons
+   (where the ramp finds no equilibrium, the least energy of the six starts beside the pose) and without, alternating:
+   what the rule costs a table (e.g. `--tendon pec2 --poses 840`: its whole grid) and where it changes the results
+   (only where the ramp fails, so the arms at the poses both solve are identical).
 """
 from __future__ import annotations
 
@@ -142,6 +146,16 @@ def topology_cache(label: str, run, difference, repeats: int) -> None:
         solver.TOPOLOGY_CACHE = kept
 
 
+def fallback(label: str, run, difference, repeats: int) -> None:
+    kept = bands.FALLBACK
+    variants = {"ramp alone": lambda: setattr(bands, "FALLBACK", ()), "with FALLBACK": lambda: setattr(
+        bands, "FALLBACK", kept)}
+    try:
+        side_by_side(f"{label} (FALLBACK: {', '.join(kept)})", variants, run, difference, repeats)
+    finally:
+        bands.FALLBACK = kept
+
+
 def arms(a: dict, b: dict) -> str:
     both = a["converged"] & b["converged"]
     solved = f"{a['converged'].sum()}/{b['converged'].sum()} solved"
@@ -206,6 +220,8 @@ def main() -> None:
                    help="band solves with Newton's iteration cap A against B (4.) instead of the layouts (1.)")
     p.add_argument("--topology-cache", action="store_true",
                    help="band solves with the sheets' connectivity cached against not (5.) instead of the layouts (1.)")
+    p.add_argument("--fallback", action="store_true",
+                   help="band solves with bands.FALLBACK against the ramp alone (6.) instead of the layouts (1.)")
     args = p.parse_args()
     if min(args.poses, args.repeats, *args.elements) < 1:
         p.error("--poses, --repeats and --elements take positive counts")
@@ -221,9 +237,11 @@ def main() -> None:
             iteration_caps(f"band {t}, {len(poses)} poses", run, arms, args.repeats, args.max_iter)
         elif args.topology_cache:
             topology_cache(f"band {t}, {len(poses)} poses", run, arms, args.repeats)
+        elif args.fallback:
+            fallback(f"band {t}, {len(poses)} poses", run, arms, args.repeats)
         else:
             compare(f"band {t}, {len(poses)} poses", footprint._Problem, run, arms, args.repeats, args.layouts)
-    if args.full_tendon != "none" and not (args.max_iter or args.topology_cache):
+    if args.full_tendon != "none" and not (args.max_iter or args.topology_cache or args.fallback):
         spec = full.specs()[args.full_tendon]
         lengths = full.length_grids()[args.full_tendon]
         label = f"length-keyed {args.full_tendon}, {len(lengths)} lengths"

@@ -336,8 +336,9 @@ def test_an_interrupted_build_resumes_from_the_poses_it_saved(cell, monkeypatch,
 
 def test_the_continuation_down_in_activation_halves_a_step_newton_cannot_take():
     """`footprint_compare.continued`: a step Newton fails on is taken in halves (at most HALVINGS times); beyond that
-    the level and those below it are NaN. A stand-in sheet whose Newton converges only over steps of at most 0.1 and
-    whose ramp from rest never converges."""
+    the level is NaN unless the ramp from rest or (with `offsets_deg`) a start beside the pose reaches it, and the next
+    level goes on from the last one kept. A stand-in sheet whose Newton converges only over steps of at most 0.1, whose
+    ramp from rest converges only at a <= 0.05 and whose starts beside the pose only at a = 0.08."""
     class Sheet:
         def solve_from(self, pose_deg, start, activation):
             if abs(activation - start) > 0.1 + 1e-12:
@@ -345,12 +346,24 @@ def test_the_continuation_down_in_activation_halves_a_step_newton_cannot_take():
             return {"moment_arm_m": np.full(3, activation), "nodes": activation, "energy_J": 0.0}
 
         def solve(self, pose_deg, activation):
-            raise NoConvergence("no ramp")
+            if activation > 0.05:
+                raise NoConvergence("no ramp")
+            return {"nodes": activation}
+
+        def solve_least_energy(self, pose_deg, offsets_deg, activation, ramp):
+            assert not ramp and len(offsets_deg) == 1  # the ramp was tried already
+            if activation != 0.08:
+                raise NoConvergence("no start")
+            return {"moment_arm_m": np.full(3, -activation), "nodes": activation, "energy_J": 0.0}
 
     arms = footprint_compare.continued(Sheet(), (0, 0, 0), 1.0, (0.75, 0.5))  # steps of 0.25: halved twice (0.0625)
     np.testing.assert_allclose(arms, [[0.75] * 3, [0.5] * 3])
-    arms = footprint_compare.continued(Sheet(), (0, 0, 0), 1.0, (0.9, 0.0))  # 0.9 at 1/8 of the step: 0.1125, too long
+    arms = footprint_compare.continued(Sheet(), (0, 0, 0), 1.0, (0.9, 0.06))  # 0.06 at 1/8 of the step: 0.105, too long
     assert np.allclose(arms[0], 0.9) and np.isnan(arms[1]).all()
+    arms = footprint_compare.continued(Sheet(), (0, 0, 0), 1.0, (0.08, 0.04))  # neither reaches 0.08; the ramp 0.04
+    assert np.isnan(arms[0]).all() and np.allclose(arms[1], 0.04)
+    arms = footprint_compare.continued(Sheet(), (0, 0, 0), 1.0, (0.08, 0.0), offsets_deg=[(7.5, 0.0, 0.0)])
+    np.testing.assert_allclose(arms, [[-0.08] * 3, [0.0] * 3])  # 0.08 from the start beside; 0.0 continued from it
 
 
 def test_below_a_1_the_band_keeps_the_lower_energy_of_the_continued_and_the_ramped_equilibrium():
@@ -396,3 +409,29 @@ def test_the_verify_lists_ten_poses_over_the_bound_and_the_box_that_holds_them_a
     lo, hi = held[:11].min(axis=0), held[:11].max(axis=0)
     assert (f"all 11 over the bound within plane {lo[0]:g}-{hi[0]:g}, elevation {lo[1]:g}-{hi[1]:g}, rotation "
             f"{lo[2]:g}-{hi[2]:g} deg") in out
+
+
+def test_a_fallback_tendons_band_is_the_ramps_and_the_starts_only_where_the_ramp_finds_none(monkeypatch):
+    """bands.FALLBACK (pec2): `solve_poses` keeps the ramp's equilibrium where it converges; where it does not (made
+    to fail here at one pose), the least-energy of the six starts beside the pose, the ramp not tried again. Without
+    the rule that pose is unsolved; the rule is in the table's input hash."""
+    poses, calls = np.array([[30.0, 40.0, 0.0], [45.0, 60.0, 15.0]]), []
+    ramp, least = FootprintSheet.solve, FootprintSheet.solve_least_energy
+
+    def failing(self, pose_deg, activation=1.0):
+        if np.allclose(pose_deg, poses[1]):
+            raise NoConvergence("made to fail")
+        return ramp(self, pose_deg, activation)
+
+    def spied(self, pose_deg, offsets_deg, activation=1.0, ramp=True):
+        calls.append((tuple(pose_deg), len(offsets_deg), ramp))
+        return least(self, pose_deg, offsets_deg, activation, ramp)
+
+    monkeypatch.setattr(FootprintSheet, "solve", failing)
+    monkeypatch.setattr(FootprintSheet, "solve_least_energy", spied)
+    assert bands.solve_poses("pec2", poses, "coarse")["converged"].all()
+    assert calls == [(tuple(poses[1]), 6, False)]
+    digest = bands.input_hash("pec2", "coarse", bands.Material())
+    monkeypatch.setattr(bands, "FALLBACK", ())
+    assert bands.solve_poses("pec2", poses, "coarse")["converged"].tolist() == [True, False]
+    assert bands.input_hash("pec2", "coarse", bands.Material()) != digest

@@ -67,3 +67,21 @@ def worker_init() -> None:
     task's error and then takes the next task, so a terminated build's workers went on solving."""
     threadpool_limits(1, user_api="blas")
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def neighbours_mean(field: np.ndarray, unsolved: np.ndarray) -> np.ndarray:
+    """`field` (grid shape + (3,)) where each unsolved grid pose takes the mean of its solved neighbours' values (one
+    step along each coordinate); a cluster of unsolved poses (tma's corner) in rounds, from its edge inward."""
+    out, todo = field.copy(), unsolved.copy()
+    while todo.any():
+        filled = {}
+        for idx in zip(*np.nonzero(todo)):
+            near = [out[j] for j in (tuple(np.add(idx, step * np.eye(todo.ndim, dtype=int)[axis]))
+                                     for axis in range(todo.ndim) for step in (-1, 1))
+                    if all(0 <= k < n for k, n in zip(j, todo.shape)) and not todo[j]]
+            filled.update({idx: np.mean(near, axis=0)} if near else {})
+        if not filled:
+            raise RuntimeError("no solved grid pose to take the unsolved poses' correction from")
+        for idx, value in filled.items():
+            out[idx], todo[idx] = value, False
+    return out

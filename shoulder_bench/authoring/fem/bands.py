@@ -21,7 +21,8 @@ tuberosity: its 40 mm sheet on the parent's 17 mm wrap sphere has several equili
 activation ramped from rest at the pose (`FootprintSheet.solve`); for the tendons in LEAST_ENERGY, whose sheet has more
 than one equilibrium at some poses (`benchmarks/band_refine.py --branches`), the least-energy of that one and those
 Newton reaches at the pose from the ramp's at the pose +- PROBE_FRACTION of the tasks' step along each coordinate, the
-first LEAST_ENERGY[t] of those six starts (`least_energy`): the pose's alone. A grid pose without an equilibrium (e.g.
+first LEAST_ENERGY[t] of those six starts (`least_energy`): the pose's alone; for those in FALLBACK, the ramp's, and
+where it finds none the least-energy of the six starts'. A grid pose without an equilibrium (e.g.
 tma's corner, plane 80-90, elevation 140, rotation -45) takes the mean of its solved neighbours' correction, listed in
 the table (`unsolved`, meta); at most MAX_UNSOLVED of the grid may be.
 
@@ -44,7 +45,7 @@ import numpy as np
 from tqdm import tqdm
 
 from shoulder_bench import full_arm
-from shoulder_bench.authoring.fem import rounded, worker_init
+from shoulder_bench.authoring.fem import neighbours_mean, rounded, worker_init
 from shoulder_bench.authoring.fem.footprint import FLAT_DRAPE, FOOTPRINT_M, INSERTION_M, SETTINGS
 from shoulder_bench.authoring.fem.footprint_compare import compare
 from shoulder_bench.authoring.fem.full import locked_folder
@@ -69,6 +70,9 @@ REFINE = {"ssp": 2, "pec1": 2, "tma": (3, 2, 3), "pec3": 2, "dpo": 2, "ssc": (2,
 # dpo (every start found it at their worst held-out poses: band_refine.py --branches) one (docs/fem.md "tma", "ssp: one
 # start", "dan and ld1-3", "dpo: least energy")
 LEAST_ENERGY = {"tmi": 6, "tma": 1, "ssp": 1, "dan": 1, "ld1": 1, "ld2": 1, "ld3": 1, "dpo": 1}
+# Tendons solved by the ramp where it converges and from the six starts where it does not: pec2 (today's solver's ramp
+# ends its Newton iterations short of an equilibrium the -plane start reaches; docs/fem.md "pec2: the starts' fallback")
+FALLBACK = ("pec2",)
 PROBE_FRACTION = 0.25  # the starts' offsets from the pose, in tasks' grid steps
 # Each tendon's contact surface (`footprint.SURFACES`; "wrap", the MJCF's wrap object, if absent): the humeral head
 # sphere (`footprint.HUMERAL_HEAD`) for isp (its band on the parent's cylinder follows the MJCF path's jump and misses
@@ -115,10 +119,12 @@ def mesh_poses(values) -> np.ndarray:
 
 def input_hash(tendon: str, resolution: str, material: Material, grid_axes=None) -> str:
     """The hash of all a table's solutions depend on, its grid `grid_axes` (default `axes(tendon)`) included."""
-    # LEAST_ENERGY's rule, its starts where fewer than six, FLAT_DRAPE's drape: only where chosen (older hashes stay)
+    # LEAST_ENERGY's or FALLBACK's rule, its starts where fewer than six, FLAT_DRAPE's drape: only where chosen (older
+    # hashes stay)
     rule = {"equilibrium": "least energy", "probe": PROBE_FRACTION} if tendon in LEAST_ENERGY else {}
     if rule and LEAST_ENERGY[tendon] < 6:
         rule["starts"] = LEAST_ENERGY[tendon]
+    rule.update({"equilibrium": "ramp, else least energy", "probe": PROBE_FRACTION} if tendon in FALLBACK else {})
     rule.update({"drape": "flat"} if tendon in FLAT_DRAPE else {})
     rule.update({"insertion_m": list(INSERTION_M[tendon])} if tendon in INSERTION_M else {})
     blob = json.dumps(rounded({"model": hashlib.sha256(full_arm.MODEL_FILE.read_bytes()).hexdigest(),
@@ -277,17 +283,18 @@ def _known_at(poses: np.ndarray, known: dict | None) -> np.ndarray:
 def solve_poses(tendon: str, poses: np.ndarray, resolution: str, progress=None,
                 pose: full_arm.Pose | None = None, jobs: int = 1, activations=()) -> dict:
     """The taut band of `tendon` at `poses` (P, 3) deg, as `footprint_compare.compare` returns it (rest="pose"): the
-    ramp's equilibrium, or for LEAST_ENERGY tendons `least_energy`'s. `jobs` > 1: that many processes, each solving
-    CHUNK poses at a time on a model it poses itself (`pose` unused; each pose's equilibrium is its own, so the result
-    is the same); progress(n) after n poses. activations: also the band at these levels below 1, taken down from
-    a = 1 (`footprint_compare.continued`; `compare`'s "fem_m_at")."""
+    ramp's equilibrium (for FALLBACK tendons, where it finds none, the starts'), or for LEAST_ENERGY tendons
+    `least_energy`'s. `jobs` > 1: that many processes, each solving CHUNK poses at a time on a model it poses itself
+    (`pose` unused; each pose's equilibrium is its own, so the result is the same); progress(n) after n poses.
+    activations: also the band at these levels below 1, taken down from a = 1 (`footprint_compare.continued`;
+    `compare`'s "fem_m_at")."""
     poses = np.atleast_2d(np.asarray(poses, float))
     if jobs > 1 and len(poses) > CHUNK:
         return _solve_parallel(tendon, poses, resolution, progress, jobs, activations)
     if tendon in LEAST_ENERGY:
         return least_energy(tendon, poses, resolution, progress, pose, activations=activations)
-    return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose",
-                   surface=surface(tendon), activations=activations)
+    return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose", surface=surface(tendon),
+                   activations=activations, fallback_deg=probe_offsets() if tendon in FALLBACK else None)
 
 
 CHUNK = 20  # poses a worker process solves at a time (the sheet is set up anew for each chunk: ~0.02 s)
@@ -332,24 +339,6 @@ def least_energy(tendon: str, poses: np.ndarray, resolution: str, progress=None,
     starts = LEAST_ENERGY.get(tendon, 6) if starts is None else starts
     return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose",
                    surface=surface(tendon), offsets_deg=probe_offsets()[:starts], activations=activations)
-
-
-def neighbours_mean(field: np.ndarray, unsolved: np.ndarray) -> np.ndarray:
-    """`field` (grid shape + (3,)) where each unsolved grid pose takes the mean of its solved neighbours' values (one
-    step along each coordinate); a cluster of unsolved poses (tma's corner) in rounds, from its edge inward."""
-    out, todo = field.copy(), unsolved.copy()
-    while todo.any():
-        filled = {}
-        for idx in zip(*np.nonzero(todo)):
-            near = [out[j] for j in (tuple(np.add(idx, step * np.eye(todo.ndim, dtype=int)[axis]))
-                                     for axis in range(todo.ndim) for step in (-1, 1))
-                    if all(0 <= k < n for k, n in zip(j, todo.shape)) and not todo[j]]
-            filled.update({idx: np.mean(near, axis=0)} if near else {})
-        if not filled:
-            raise RuntimeError("no solved grid pose to take the unsolved poses' correction from")
-        for idx, value in filled.items():
-            out[idx], todo[idx] = value, False
-    return out
 
 
 def build(tendons=FOOTPRINT_TENDONS, coarse: bool = False, out: Path | None = None, jobs: int = 1,
@@ -404,7 +393,8 @@ def _meta(tendon, resolution, digest, grid, seconds, resumed_poses=0) -> dict:
             "unsolved_poses_deg": grid_poses(tendon)[grid["unsolved"].reshape(-1)].tolist(),
             "grid_refine": REFINE.get(tendon, 1),
             "equilibrium": (f"least energy: the ramp's and Newton's from {LEAST_ENERGY[tendon]} of probe_offsets"
-                            if tendon in LEAST_ENERGY else "the ramp from rest"),
+                            if tendon in LEAST_ENERGY else "the ramp from rest" + (", else the least energy from "
+                            "the six probe_offsets" if tendon in FALLBACK else "")),
             "unsolved_rule": "the correction: the mean of the solved neighbouring grid poses' (one step along each "
                              "coordinate)",
             "code_version": CODE_VERSION, "input_hash": digest, "build_seconds": round(seconds, 2),

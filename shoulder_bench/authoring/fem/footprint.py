@@ -303,20 +303,20 @@ class FootprintSheet:
         x, _ = self.problem.newton(self.problem.predict(start, 0.0, 0.0), activation)
         return dict(self.reduce(x, activation), energy_J=self.problem.energy(x, activation))
 
-    def solve_least_energy(self, pose_deg, offsets_deg) -> dict:
-        """rest="pose": the least-energy of the ramp's equilibrium at `pose_deg` and those Newton reaches there from
-        the ramp's at `pose_deg` + each of `offsets_deg` (K, 3) (`solve_from`; the sheet built at the pose each time):
-        `solve_from`'s result. NoConvergence where none converges."""
+    def solve_least_energy(self, pose_deg, offsets_deg, activation: float = 1.0, ramp: bool = True) -> dict:
+        """rest="pose": the least-energy of the ramp's equilibrium at `pose_deg` (unless not `ramp`) and those Newton
+        reaches there from the ramp's at `pose_deg` + each of `offsets_deg` (K, 3) (`solve_from`; the sheet built at
+        the pose each time), at `activation`: `solve_from`'s result. NoConvergence where none converges."""
         p, best = np.asarray(pose_deg, float), None
-        for start in p + np.vstack([np.zeros(3), offsets_deg]):
+        for start in p + np.vstack([np.zeros((int(ramp), 3)), offsets_deg]):
             try:
-                sol = self.solve_from(p, self.solve(start)["nodes"])
+                sol = self.solve_from(p, self.solve(start, activation)["nodes"], activation)
             except NoConvergence:
                 continue
             if best is None or sol["energy_J"] < best["energy_J"]:
                 best = sol
         if best is None:
-            raise NoConvergence(f"no equilibrium at {p.tolist()} deg from any of {len(offsets_deg) + 1} starts")
+            raise NoConvergence(f"no equilibrium at {p.tolist()} deg from any of {len(offsets_deg) + ramp} starts")
         return best
 
     def _activate(self, x: np.ndarray, activation: float) -> np.ndarray:
