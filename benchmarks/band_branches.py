@@ -3,6 +3,7 @@ misses")
 
     .venv/bin/python benchmarks/band_branches.py --tendon ssp [--n 150] [--seed 0]   (≈ 5 s a pose for ssp)
     .venv/bin/python benchmarks/band_branches.py --tendon pec2 --at 82.5 75 -37.5 [--at P E R ...] [--activation A]
+        [--iteration-stall]
 
 At N poses drawn from the tendon's table grid (`bands.grid_poses`, fixed seed) the band is solved as
 `bands.least_energy` solves it with all six starts (the ramp at p, and Newton at p from the ramp's at p +-
@@ -12,15 +13,19 @@ more than SAME_MM from the ramp's: closer ones are the same equilibrium to the s
 arms differ and which starts found it: what the least-energy rule would change in a table built by the ramp, and
 whether fewer starts would do. Where the ramp finds no equilibrium, it reports which of the other starts reach one
 at p (and the band's moment arms there). --at: these poses (deg) instead of the drawn ones; --activation: every
-solve at this level (default 1: the tables' level), the ramp's from rest to it.
+solve at this level (default 1: the tables' level), the ramp's from rest to it. --iteration-stall: a study of a
+solver rule no table uses (`SolverSettings.iteration_stall`): Newton's last iterate accepted where its residual is
+inside the stall band (stall_factor x the tolerance) a stalled line search is accepted in.
 """
 from __future__ import annotations
 
 import argparse
+import dataclasses
 
 import numpy as np
 
 from shoulder_bench import full_arm
+from shoulder_bench.authoring.fem import footprint
 from shoulder_bench.authoring.fem.bands import FOOTPRINT_TENDONS, grid_poses, probe_offsets, surface
 from shoulder_bench.authoring.fem.footprint import FootprintSheet
 from shoulder_bench.authoring.fem.solver import NoConvergence
@@ -37,10 +42,14 @@ def main() -> None:
     ap.add_argument("--at", nargs=3, type=float, action="append", metavar=("PLANE", "ELEVATION", "ROTATION"),
                     help="a pose (deg) to solve instead of the drawn ones; repeat for more")
     ap.add_argument("--activation", type=float, default=1.0, help="the level every band is solved at (0, 1]")
+    ap.add_argument("--iteration-stall", action="store_true",
+                    help="Newton's last iterate accepted inside the stall band (a study: no table uses it)")
     args = ap.parse_args()
     if not 0.0 < args.activation <= 1.0:
         ap.error(f"--activation {args.activation:g}: give a level in (0, 1]")
     a = args.activation
+    if args.iteration_stall:
+        footprint.SETTINGS = dataclasses.replace(footprint.SETTINGS, iteration_stall=True)  # read by every sheet
     poses = grid_poses(args.tendon)
     poses = poses[np.sort(np.random.default_rng(args.seed).choice(len(poses), min(args.n, len(poses)), False))]
     if args.at:

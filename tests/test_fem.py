@@ -430,3 +430,29 @@ def test_the_contact_forces_and_blocks_are_the_penalty_energys_derivatives(axis)
         np.testing.assert_allclose(blocks[i, :, a], (gp - gm).reshape(-1, 3)[i] / (2 * step), rtol=1e-4,
                                    atol=1e-6 * np.abs(blocks).max())
     assert np.all(g[:24] == 0.0) and np.abs(g[24:]).min() > 0  # the clear nodes feel nothing
+
+
+def test_the_iteration_stall_study_option_accepts_newtons_last_iterate_inside_the_stall_band_only_where_chosen():
+    """`SolverSettings.iteration_stall` (a study option no table uses: benchmarks/band_branches.py --iteration-stall):
+    Newton ending its iterations with the residual inside stall_factor x tol returns that iterate instead of raising;
+    outside the band, or without the option, it raises. Off, the settings hash as before the option existed."""
+    from shoulder_bench.authoring.fem.solver import NoConvergence
+
+    sheet = _sheet(ns=5, nt=3)
+    start = sheet["nodes"].copy()
+    start[:, 0] *= 1.2
+    p = MuscleProblem(sheet, Material(), SolverSettings(tol=1e-9), f0=75.0)
+    x = start.copy()
+    x[p.free] += 1e-3
+    first = np.max(np.abs(p.gradient(x, 1.0)[p.free_dofs]))  # the residual at the start (N)
+    for stall, band, accepted in ((False, 1e12, False), (True, 1e12, True), (True, 1e-3, False)):
+        settings = SolverSettings(tol=1e-9, max_iter=1, stall_factor=band, iteration_stall=stall)
+        q = MuscleProblem(sheet, Material(), settings, f0=75.0)
+        if accepted:
+            y, it = q.newton(x.copy(), 1.0)
+            assert it == 1 and q.stalled == 1 and np.max(np.abs(q.gradient(y, 1.0)[q.free_dofs])) < first
+        else:
+            with pytest.raises(NoConvergence, match="no convergence in 1 iterations"):
+                q.newton(x.copy(), 1.0)
+    assert "iteration_stall" not in SolverSettings().as_dict()
+    assert SolverSettings(iteration_stall=True).as_dict()["iteration_stall"] is True

@@ -46,9 +46,13 @@ class SolverSettings:
     max_step_activation: float = 0.25  # continuation step in activation
     min_step_fraction: float = 1.0 / 64.0
     stall_factor: float = 10.0  # a stalled line search is accepted when the residual is below this * tol
+    iteration_stall: bool = False  # a study option: also accept Newton's last iterate below stall_factor * tol
 
     def as_dict(self) -> dict:
-        return asdict(self)
+        d = asdict(self)
+        if not d["iteration_stall"]:  # only where chosen: the tables built without it keep their input hashes
+            del d["iteration_stall"]
+        return d
 
 
 class NoConvergence(RuntimeError):
@@ -263,6 +267,9 @@ class MuscleProblem:
             if np.max(np.abs(r)) < tol:
                 return x, it
             if it == s.max_iter:
+                if s.iteration_stall and np.max(np.abs(r)) < s.stall_factor * tol:
+                    self.stalled += 1  # Newton cycling within the stall band at its iteration limit
+                    return x, it
                 break
             e, h = self.newton_system(x, activation)
             diag_scale = h.mean_abs_diagonal()
