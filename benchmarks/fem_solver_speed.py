@@ -148,8 +148,8 @@ def topology_cache(label: str, run, difference, repeats: int) -> None:
 
 def fallback(label: str, run, difference, repeats: int) -> None:
     kept = bands.FALLBACK
-    variants = {"ramp alone": lambda: setattr(bands, "FALLBACK", ()), "with FALLBACK": lambda: setattr(
-        bands, "FALLBACK", kept)}
+    variants = {"ramp alone": lambda: setattr(bands, "FALLBACK", ()),
+                "with FALLBACK": lambda: setattr(bands, "FALLBACK", kept)}
     try:
         side_by_side(f"{label} (FALLBACK: {', '.join(kept)})", variants, run, difference, repeats)
     finally:
