@@ -294,7 +294,8 @@ def solve_poses(tendon: str, poses: np.ndarray, resolution: str, progress=None,
     if tendon in LEAST_ENERGY:
         return least_energy(tendon, poses, resolution, progress, pose, activations=activations)
     return compare(tendon, poses, resolution, progress=progress, pose=pose, rest="pose", surface=surface(tendon),
-                   activations=activations, fallback_deg=probe_offsets() if tendon in FALLBACK else None)
+                   activations=activations, offsets_deg=probe_offsets() if tendon in FALLBACK else None,
+                   fallback=tendon in FALLBACK)
 
 
 CHUNK = 20  # poses a worker process solves at a time (the sheet is set up anew for each chunk: ~0.02 s)
@@ -393,8 +394,9 @@ def _meta(tendon, resolution, digest, grid, seconds, resumed_poses=0) -> dict:
             "unsolved_poses_deg": grid_poses(tendon)[grid["unsolved"].reshape(-1)].tolist(),
             "grid_refine": REFINE.get(tendon, 1),
             "equilibrium": (f"least energy: the ramp's and Newton's from {LEAST_ENERGY[tendon]} of probe_offsets"
-                            if tendon in LEAST_ENERGY else "the ramp from rest" + (", else the least energy from "
-                            "the six probe_offsets" if tendon in FALLBACK else "")),
+                            if tendon in LEAST_ENERGY else
+                            "the ramp from rest, else the least energy from the six probe_offsets"
+                            if tendon in FALLBACK else "the ramp from rest"),
             "unsolved_rule": "the correction: the mean of the solved neighbouring grid poses' (one step along each "
                              "coordinate)",
             "code_version": CODE_VERSION, "input_hash": digest, "build_seconds": round(seconds, 2),

@@ -63,15 +63,15 @@ def fibre_lengths(sheet: FootprintSheet, nodes: np.ndarray) -> np.ndarray:
 
 def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None = None, progress=None,
             surface: str = "wrap", pose: full_arm.Pose | None = None, rest: str = "reference",
-            offsets_deg=None, activations=(), fallback_deg=None) -> dict:
+            offsets_deg=None, activations=(), fallback: bool = False) -> dict:
     """FEM vs MJCF moment arms of `tendon` at `poses_deg` (P, 3): arrays (P, 3) in m (NaN where the sheet found no
     equilibrium: `converged`), the tensions and contact forces (N), each fibre's length in the solved sheet ("fibre_m",
     (P, nt) m, `fibre_lengths`), the central fibre's stretch (its initial shape's length over the reference's), its
     F0 (N). progress: called after each pose. surface: the sheet's contact surface
     (`SURFACES`). pose: the model posed (default: the task model, compiled anew). rest: the sheet's stress-free
     state (`RESTS`). offsets_deg (K, 3): each pose's least-energy equilibrium from those starts
-    (`FootprintSheet.solve_least_energy`) instead of the ramp's; fallback_deg (K, 3): the ramp's, and where it finds
-    none the least-energy from those starts. activations (levels below 1, descending): the band at each, from the
+    (`FootprintSheet.solve_least_energy`) instead of the ramp's; with `fallback`, the ramp's, and where it finds none
+    the least-energy from those starts. activations (levels below 1, descending): the band at each, from the
     a = 1 equilibrium down (`continued`: the least-energy of the continuation and the ramp at each level, else from
     the starts; rest="pose" only), its arms in "fem_m_at" (P, L, 3), NaN where none converges. A ValueError if the
     tendon has no sheet (`FootprintSheet`). The footprint commands' loop over poses (the report, the taut band's grid
@@ -88,12 +88,12 @@ def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None =
         sheet._set(p)
         out["stretch"][k] = sheet.central_length() / sheet.reference_length
         try:
-            s = sheet.solve(p) if offsets_deg is None else sheet.solve_least_energy(p, offsets_deg)
+            s = sheet.solve(p) if offsets_deg is None or fallback else sheet.solve_least_energy(p, offsets_deg)
         except NoConvergence:
             s = None
-        if s is None and fallback_deg is not None:
+        if s is None and fallback and offsets_deg is not None:
             try:
-                s = sheet.solve_least_energy(p, fallback_deg, ramp=False)
+                s = sheet.solve_least_energy(p, offsets_deg, ramp=False)
             except NoConvergence:
                 pass
         if s is not None:
@@ -101,7 +101,7 @@ def compare(tendon: str, poses_deg, resolution="coarse", width_m: float | None =
             out["contact_N"][k], out["converged"][k] = s["contact_N"], True
             out["fibre_m"][k] = fibre_lengths(sheet, s["nodes"])
             if len(activations):
-                starts = next(o for o in (offsets_deg, fallback_deg, ()) if o is not None)
+                starts = () if offsets_deg is None else offsets_deg
                 out["fem_m_at"][k] = continued(sheet, p, s["nodes"], activations, starts)
         if progress is not None:
             progress()
