@@ -3,7 +3,7 @@ misses")
 
     .venv/bin/python benchmarks/band_branches.py --tendon ssp [--n 150] [--seed 0]   (≈ 5 s a pose for ssp)
     .venv/bin/python benchmarks/band_branches.py --tendon pec2 --at 82.5 75 -37.5 [--at P E R ...] [--activation A]
-        [--iteration-stall]
+        [--iteration-stall] [--max-iter N]
 
 At N poses drawn from the tendon's table grid (`bands.grid_poses`, fixed seed) the band is solved as
 `bands.least_energy` solves it with all six starts (the ramp at p, and Newton at p from the ramp's at p +-
@@ -15,7 +15,9 @@ whether fewer starts would do. Where the ramp finds no equilibrium, it reports w
 at p (and the band's moment arms there). --at: these poses (deg) instead of the drawn ones; --activation: every
 solve at this level (default 1: the tables' level), the ramp's from rest to it. --iteration-stall: a study of a
 solver rule no table uses (`SolverSettings.iteration_stall`): Newton's last iterate accepted where its residual is
-inside the stall band (stall_factor x the tolerance) a stalled line search is accepted in.
+inside the stall band (stall_factor x the tolerance) a stalled line search is accepted in. --max-iter: another cap on
+Newton's iterations in every solve (a study: the tables' is footprint.SETTINGS.max_iter, 60). With --at, each pose
+the ramp solves is printed with its band's moment arms.
 """
 from __future__ import annotations
 
@@ -44,9 +46,14 @@ def main() -> None:
     ap.add_argument("--activation", type=float, default=1.0, help="the level every band is solved at (0, 1]")
     ap.add_argument("--iteration-stall", action="store_true",
                     help="Newton's last iterate accepted inside the stall band (a study: no table uses it)")
+    ap.add_argument("--max-iter", type=int, default=footprint.SETTINGS.max_iter,
+                    help="Newton's iteration cap in every solve (a study: the tables use %(default)s)")
     args = ap.parse_args()
     if not 0.0 < args.activation <= 1.0:
         ap.error(f"--activation {args.activation:g}: give a level in (0, 1]")
+    if args.max_iter < 1:
+        ap.error(f"--max-iter {args.max_iter}: give a whole number >= 1")
+    footprint.SETTINGS = dataclasses.replace(footprint.SETTINGS, max_iter=args.max_iter)  # read by every sheet
     a = args.activation
     if args.iteration_stall:
         footprint.SETTINGS = dataclasses.replace(footprint.SETTINGS, iteration_stall=True)  # read by every sheet
@@ -72,6 +79,9 @@ def main() -> None:
             print(f"{tuple(p.tolist())}: the ramp finds no equilibrium ({failure}); "
                   + (f"from the other starts: {', '.join(reached)}" if reached else "nor does any other start"))
             continue
+        if args.at:
+            print(f"{tuple(p.tolist())}: the ramp's equilibrium, arms "
+                  f"{np.round(ramp['moment_arm_m'] * 1e3, 1).tolist()} mm", flush=True)
         best, by = ramp, []
         for label, start in zip(labels, p + probe_offsets()):
             try:
