@@ -64,6 +64,36 @@ def test_a_fibre_table_is_built_read_and_reused(tmp_path, monkeypatch):
         F.FibreTable.load("tmi", tmp_path)
 
 
+def test_the_fibre_build_takes_the_fibres_the_band_build_solved(tmp_path, monkeypatch, capsys):
+    """`fem build --bands` keeps each pose's fibre lengths in the band table, and `fem build --fibres` into the same
+    folder takes them from it, solving only what it lacks (here the anchor, off this grid): the table is the one built
+    by solving every pose. A band table from before the tables kept their fibres lends nothing."""
+    small = [np.array([30.0, 45.0]), np.array([40.0, 50.0]), np.array([0.0, 15.0])]
+    monkeypatch.setattr(bands, "axes", lambda tendon=None: [a.copy() for a in small])
+    bands.build(("pec2",), out=tmp_path / "bands", quiet=True)
+    with np.load(bands.table_path("pec2", tmp_path / "bands")) as z:
+        band = {k: z[k] for k in z.files}
+    assert band["fibre_m"].shape == (2, 2, 2, 9) and np.isfinite(band["fibre_m"]).all() and not band["unsolved"].any()
+    solved, real = [], bands.solve_poses
+    monkeypatch.setattr(bands, "solve_poses", lambda t, poses, *a, **k: solved.append(len(poses)) or real(
+        t, poses, *a, **k))
+    assert main(["fem", "build", "--fibres", "--tendon", "pec2", "--out", str(tmp_path / "bands")]) == 0
+    assert "solved but 8 poses taken from its band table" in capsys.readouterr().out
+    assert solved == [1]  # the anchor (30, 45, 0) alone
+    assert not F.build(("pec2",), out=tmp_path / "alone", quiet=True)["pec2"]["band_poses"]  # no band table there
+    assert solved == [1, 9]
+    (tmp_path / "old").mkdir()
+    np.savez(bands.table_path("pec2", tmp_path / "old"), **{k: v for k, v in band.items() if k != "fibre_m"})
+    assert F.band_poses("pec2", tmp_path / "old")["poses"].shape == (0, 3)
+    F.build(("pec2",), out=tmp_path / "old", quiet=True)
+    assert solved == [1, 9, 9]
+    taken, alone, old = (F.FibreTable.load("pec2", tmp_path / d) for d in ("bands", "alone", "old"))
+    assert taken.meta["input_hash"] == alone.meta["input_hash"]
+    poses = bands.mesh_poses(small)
+    np.testing.assert_allclose(taken.departure(poses), alone.departure(poses), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(old.departure(poses), alone.departure(poses), rtol=0, atol=1e-12)
+
+
 def test_the_fibre_commands_refuse_what_does_not_go_with_them(capsys):
     with pytest.raises(SystemExit, match="--fibres builds"):
         main(["fem", "build", "--fibres", "--bands"])
@@ -71,6 +101,8 @@ def test_the_fibre_commands_refuse_what_does_not_go_with_them(capsys):
         main(["fem", "verify", "--fibres", "--held-out", "0"])
     with pytest.raises(SystemExit, match="no band for cor"):
         main(["fem", "build", "--fibres", "--tendon", "cor", "--out", "/tmp/unused_fibres"])
+    with pytest.raises(SystemExit, match="no band for dmi; tendons with one: ssp"):  # not "build it": it has none
+        main(["fem", "verify", "--fibres", "--tendon", "dmi"])
 
 
 def test_the_verify_fails_a_table_without_the_spread(tmp_path, monkeypatch, capsys):

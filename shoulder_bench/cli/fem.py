@@ -113,6 +113,8 @@ def _build_fibres(args) -> int:
         raise SystemExit(f"shoulder-bench fem build: error: {exc}") from None
     for t, m in metas.items():
         how = "up to date, nothing to do" if m["cached"] else "solved"
+        if not m["cached"] and m.get("band_poses"):
+            how += f" but {m['band_poses']} poses taken from its band table"
         print(f"{t}: fibre table, {how} ({m['build_seconds']:.1f} s to solve; largest departure from the mean fibre "
               f"{m['largest_departure_mm']:.2f} mm; {len(m['unsolved_poses_deg'])} unsolved poses)")
     print(f"total {time.perf_counter() - t0:.1f} s")

@@ -25,7 +25,9 @@ what it changes against one length.
 
 Table (`<folder>/<tendon>_fibres.npz`, default models/muscles_full): plane_deg, elevation_deg, rotation_deg (the
 grid); departure_m (P, E, R, nt); unsolved (P, E, R) bool; meta (JSON: tendon, input_hash, anchor, build_seconds,
-...). Cached by input hash: the band table's inputs on this grid, the anchor and FIBRES_VERSION.
+...). Cached by input hash: the band table's inputs on this grid, the anchor and FIBRES_VERSION. The build takes
+the poses the band table in its folder holds with their fibres (`band_poses`: a band table of the same inputs keeps
+each pose's fibre lengths, and its grid nests this one), so after `fem build --bands` it solves the anchor alone.
 """
 from __future__ import annotations
 
@@ -68,20 +70,40 @@ def departures(fibre_m: np.ndarray) -> np.ndarray:
     return change - change.mean(axis=1, keepdims=True)
 
 
-def solve(tendon: str, poses: np.ndarray, resolution: str = "full", progress=None, jobs: int = 1) -> dict:
+def solve(tendon: str, poses: np.ndarray, resolution: str = "full", progress=None, jobs: int = 1,
+          known: dict | None = None) -> dict:
     """The departures (P, nt) m at `poses` (P, 3) deg and which converged (P,), the anchor solved first (a
-    RuntimeError if it does not converge)."""
-    r = bands.solve_poses(tendon, np.vstack([LENGTH_ANCHOR_DEG, poses]), resolution, progress, jobs=jobs)
+    RuntimeError if it does not converge). known (`band_poses`): poses whose band is already solved, taken as they are;
+    "reused": how many."""
+    everything = np.vstack([LENGTH_ANCHOR_DEG, poses])
+    r = bands.with_known(everything, known,
+                          lambda todo: bands.solve_poses(tendon, todo, resolution, progress, jobs=jobs))
     if not r["converged"][0]:
         raise RuntimeError(f"{tendon}: its band has no equilibrium at the anchor pose {LENGTH_ANCHOR_DEG}")
-    return {"departure_m": departures(r["fibre_m"]), "converged": r["converged"][1:], "f0_N": r["f0_N"]}
+    return {"departure_m": departures(r["fibre_m"]), "converged": r["converged"][1:], "f0_N": r["f0_N"],
+            "reused": r.get("reused", 0)}
+
+
+def band_poses(tendon: str, folder: Path) -> dict | None:
+    """The poses the band table in `folder` holds with their fibres, as `solve_poses` gives them (`bands.reusable`:
+    only a table built from the inputs a band table would be built from now; a pose solved before the tables kept
+    their fibres is left out), so that `fem build --bands` then `--fibres` solves each band once; None if none."""
+    known = bands.reusable(bands.table_path(tendon, folder), tendon, "full", Material())
+    if known is None:
+        return None
+    keep = ~known["converged"] | np.isfinite(known["fibre_m"]).all(axis=1)
+    return dict(known, **{k: known[k][keep] for k in ("poses",) + bands.SOLVED})
+
+
+def _check_tendons(tendons) -> None:
+    unknown = [t for t in tendons if t not in bands.FOOTPRINT_TENDONS]
+    if unknown:
+        raise ValueError(f"no band for {', '.join(unknown)}; tendons with one: {', '.join(bands.FOOTPRINT_TENDONS)}")
 
 
 def build(tendons=bands.FOOTPRINT_TENDONS, out: Path | None = None, jobs: int = 1, quiet: bool = False) -> dict:
     """Build (or reuse) each tendon's fibre table in `out` (default models/muscles_full); {tendon: meta + cached}."""
-    unknown = [t for t in tendons if t not in bands.FOOTPRINT_TENDONS]
-    if unknown:
-        raise ValueError(f"no band for {', '.join(unknown)}; tendons with one: {', '.join(bands.FOOTPRINT_TENDONS)}")
+    _check_tendons(tendons)
     grid = bands.axes(None)
     poses = bands.mesh_poses(grid)
     with locked_folder(out, False, jobs, "fibre tables") as folder:
@@ -94,11 +116,12 @@ def build(tendons=bands.FOOTPRINT_TENDONS, out: Path | None = None, jobs: int = 
             if meta.get("input_hash") == input_hash(t):
                 result[t] = dict(meta, cached=True)
             else:
-                todo.append(t)
-        with tqdm(total=len(todo) * (len(poses) + 1), desc="fem fibres", unit="pose", disable=quiet or not todo) as bar:
-            for t in todo:
+                todo.append((t, band_poses(t, folder)))
+        total = sum(int((bands.known_at(np.vstack([LENGTH_ANCHOR_DEG, poses]), k) < 0).sum()) for _, k in todo)
+        with tqdm(total=total, desc="fem fibres", unit="pose", disable=quiet or not todo) as bar:
+            for t, known in todo:
                 t0 = time.perf_counter()
-                r = solve(t, poses, progress=bar.update, jobs=jobs)
+                r = solve(t, poses, progress=bar.update, jobs=jobs, known=known)
                 shape = tuple(len(a) for a in grid)
                 unsolved = ~r["converged"].reshape(shape)
                 departure = bands.neighbours_mean(np.nan_to_num(r["departure_m"]).reshape(shape + (-1,)), unsolved)
@@ -106,7 +129,7 @@ def build(tendons=bands.FOOTPRINT_TENDONS, out: Path | None = None, jobs: int = 
                         "length change from the anchor less the mean fibre's", "anchor_deg": list(LENGTH_ANCHOR_DEG),
                         "input_hash": input_hash(t), "version": FIBRES_VERSION, "f0_N": r["f0_N"],
                         "unsolved_poses_deg": poses[unsolved.reshape(-1)].tolist(),
-                        "largest_departure_mm": float(np.abs(departure).max() * 1e3),
+                        "largest_departure_mm": float(np.abs(departure).max() * 1e3), "band_poses": r["reused"],
                         "build_seconds": round(time.perf_counter() - t0, 2)}
                 _write(table_path(t, folder), grid, departure, unsolved, meta)
                 result[t] = dict(meta, cached=False)
@@ -158,6 +181,7 @@ def verify(tendons=bands.FOOTPRINT_TENDONS, folder: Path | None = None, count: i
     print one line per tendon; 0 when every held-out pose solved and is within VERIFY_BOUND_PCT of F0."""
     from shoulder_bench.tendon_law import TendonLaw
 
+    _check_tendons(tendons)
     failed = 0
     for t in tendons:
         table = FibreTable.load(t, folder)

@@ -46,7 +46,7 @@ from tqdm import tqdm
 
 from shoulder_bench import full_arm
 from shoulder_bench.authoring.fem import neighbours_mean, rounded, worker_init
-from shoulder_bench.authoring.fem.footprint import FLAT_DRAPE, FOOTPRINT_M, INSERTION_M, SETTINGS
+from shoulder_bench.authoring.fem.footprint import FLAT_DRAPE, FOOTPRINT_M, INSERTION_M, RESOLUTION, SETTINGS
 from shoulder_bench.authoring.fem.footprint_compare import compare
 from shoulder_bench.authoring.fem.full import locked_folder
 from shoulder_bench.authoring.fem.material import Material
@@ -167,7 +167,7 @@ def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_
     as they are (each pose's equilibrium is its own); the rest are solved, SAVE_EVERY at a time, each block's poses
     handed to save(known so far, as `known`) if given (the build's checkpoint)."""
     shape, poses = tuple(len(a) for a in axes(tendon)), grid_poses(tendon)
-    r = _with_known(poses, known, lambda todo: _solve_saving(tendon, todo, resolution, progress, pose, jobs, save))
+    r = with_known(poses, known, lambda todo: _solve_saving(tendon, todo, resolution, progress, pose, jobs, save))
     arm, mjcf, unsolved = r["fem_m"], r["mjcf_m"], ~r["converged"]
     tension, contact = np.nan_to_num(r["tension_N"]), np.nan_to_num(r["contact_N"])  # 0 where unsolved
     if unsolved.sum() > MAX_UNSOLVED * len(poses):
@@ -178,10 +178,10 @@ def solve_grid(tendon: str, resolution: str = "full", progress=None, pose: full_
     arm[unsolved] = mjcf[unsolved] + neighbours_mean(arm - mjcf, unsolved)[unsolved]
     return {"moment_arm_m": arm, "mjcf_moment_arm_m": mjcf, "tension_N": tension.reshape(shape),
             "contact_N": contact.reshape(shape), "unsolved": unsolved, "f0_N": r["f0_N"],
-            "reused": r.get("reused", 0)}
+            "fibre_m": r["fibre_m"].reshape(*shape, -1), "reused": r.get("reused", 0)}
 
 
-SOLVED = ("fem_m", "mjcf_m", "tension_N", "contact_N", "converged")  # what `solve_poses` gives per pose
+SOLVED = ("fem_m", "mjcf_m", "tension_N", "contact_N", "converged", "fibre_m")  # what `solve_poses` gives per pose
 SAVE_EVERY = 200  # poses a build solves between checkpoints: at most this many are solved again after an interrupt
 PARTIAL = ("poses", "f0_N") + SOLVED  # what a checkpoint holds (beside its input hash): a `known` dict
 
@@ -252,14 +252,16 @@ def reusable(path: Path, tendon: str, resolution: str, material: Material) -> di
     return {"poses": mesh_poses(grid), "fem_m": arm, "mjcf_m": arrays["mjcf_moment_arm_m"].reshape(-1, 3),
             "tension_N": np.where(solved, arrays["tension_N"].reshape(-1), np.nan),
             "contact_N": np.where(solved, arrays["contact_N"].reshape(-1), np.nan), "converged": solved,
+            "fibre_m": arrays["fibre_m"].reshape(len(solved), -1) if "fibre_m" in arrays else  # tables before 12-08
+            np.full((len(solved), RESOLUTION[resolution][1]), np.nan),
             "f0_N": meta["f0_N"]}
 
 
-def _with_known(poses: np.ndarray, known: dict | None, solve) -> dict:
+def with_known(poses: np.ndarray, known: dict | None, solve) -> dict:
     """`solve(poses)`'s arrays, taking the poses in `known` from it (matched to 1e-6 deg) and solving only the rest."""
     if known is None:
         return solve(poses)
-    at = _known_at(poses, known)
+    at = known_at(poses, known)
     todo = poses[at < 0]
     new = solve(todo) if len(todo) else {"f0_N": known["f0_N"]}
     out = {"f0_N": new["f0_N"], "reused": int((at >= 0).sum())}
@@ -272,7 +274,7 @@ def _with_known(poses: np.ndarray, known: dict | None, solve) -> dict:
     return out
 
 
-def _known_at(poses: np.ndarray, known: dict | None) -> np.ndarray:
+def known_at(poses: np.ndarray, known: dict | None) -> np.ndarray:
     """(P,) each of `poses`' index in `known["poses"]` (matched to 1e-6 deg), -1 where it has none."""
     if known is None:
         return np.full(len(poses), -1)
@@ -366,7 +368,7 @@ def _build(folder: Path, tendons: tuple, resolution: str, jobs: int, quiet: bool
         else:
             done = resumed(partial_path(t, folder), digest)
             todo.append((t, digest, done, merged(reusable(table_path(t, folder), t, resolution, material), done)))
-    total = sum(int((_known_at(grid_poses(t), known) < 0).sum()) for t, _, _, known in todo)
+    total = sum(int((known_at(grid_poses(t), known) < 0).sum()) for t, _, _, known in todo)
     with tqdm(total=total, desc="fem bands", unit="pose", disable=quiet or not todo) as bar:
         for t, digest, done, known in todo:
             t0, partial = time.perf_counter(), partial_path(t, folder)
@@ -406,7 +408,8 @@ def _meta(tendon, resolution, digest, grid, seconds, resumed_poses=0) -> dict:
 def _write(path: Path, grid: dict, meta: dict) -> None:
     plane, elevation, rotation = axes(meta["tendon"])
     arrays = {"plane_deg": plane, "elevation_deg": elevation, "rotation_deg": rotation,
-              **{k: grid[k] for k in ("moment_arm_m", "mjcf_moment_arm_m", "tension_N", "contact_N", "unsolved")},
+              **{k: grid[k] for k in ("moment_arm_m", "mjcf_moment_arm_m", "tension_N", "contact_N", "unsolved",
+                                      "fibre_m")},
               "meta": np.array(json.dumps(meta, sort_keys=True))}
     with replacing(path) as tmp:
         np.savez(tmp, **arrays)
