@@ -87,9 +87,10 @@ def solve(tendon: str, poses: np.ndarray, resolution: str = "full", progress=Non
 def band_poses(tendon: str, folder: Path) -> dict | None:
     """The poses the band table in `folder` holds with their fibres, as `solve_poses` gives them (`bands.reusable`:
     only a table built from the inputs a band table would be built from now; a pose solved before the tables kept
-    their fibres is left out), so that `fem build --bands` then `--fibres` solves each band once; None if none."""
+    their fibres is left out), so that `fem build --bands` then `--fibres` solves each band once; None if there is no
+    such table or it kept no fibres (one written before 2026-12-08 lends nothing, not even its unsolved poses)."""
     known = bands.reusable(bands.table_path(tendon, folder), tendon, "full", Material())
-    if known is None:
+    if known is None or not np.isfinite(known["fibre_m"]).any():
         return None
     keep = ~known["converged"] | np.isfinite(known["fibre_m"]).all(axis=1)
     return dict(known, **{k: known[k][keep] for k in ("poses",) + bands.SOLVED})

@@ -252,7 +252,7 @@ def reusable(path: Path, tendon: str, resolution: str, material: Material) -> di
     return {"poses": mesh_poses(grid), "fem_m": arm, "mjcf_m": arrays["mjcf_moment_arm_m"].reshape(-1, 3),
             "tension_N": np.where(solved, arrays["tension_N"].reshape(-1), np.nan),
             "contact_N": np.where(solved, arrays["contact_N"].reshape(-1), np.nan), "converged": solved,
-            "fibre_m": arrays["fibre_m"].reshape(len(solved), -1) if "fibre_m" in arrays else  # tables before 12-08
+            "fibre_m": arrays["fibre_m"].reshape(len(solved), -1) if "fibre_m" in arrays else  # one kept none
             np.full((len(solved), RESOLUTION[resolution][1]), np.nan),
             "f0_N": meta["f0_N"]}
 
