@@ -29,8 +29,9 @@ coordinates, F from `_evaluate` (the actuator's force) and c from `band_lines.ba
 where the tendon has a level table). It also reads mjModel.nu
 and mjData.qfrc_passive, and the law's row points (word BAND) to a band block: the band tendons' actuators, the
 grid, the table, the band lengths, the coordinates' addresses and the nu of the model it was attached to (another nu:
-nothing added). For such a law the actuator callbacks read a band tendon's force at its band's length and lengthening
-rate (`band_lines.band_lengthening`: the actuator length plus the band's length less the MJCF path's, read from the
+nothing added), and with fibre tables ("band_fibres") the fibres' departures on their own grid. For such a law the
+actuator callbacks read a band tendon's force at its band's length and lengthening rate
+(`band_lines.band_lengthening`: the actuator length plus the band's length less the MJCF path's, read from the
 coordinates' qpos, and the rate less the MJCF path's from their qvel), and with fibre tables in the block
 (line_of_action="band_fibres") the law as the mean of the band's fibres' (`band_lines.fibre_law`).
 
@@ -65,8 +66,9 @@ ROW = 17  # int64 words per registry row
 VALID, FLAT, ARM, LEVELS, NIVS, CTRL_OF, NCOL, NK, NLEV, QADR, VADR, A0, INV_DA, MODE, X0, INV_DX, BAND = range(17)
 JOINT_MODE, LENGTH_MODE = 0, 1  # row[MODE]: the law reads one joint's angle (ForceLaw) or each tendon's length
 # row[BAND]: 0, or the address of a band block (int64 words): the law's band corrections (`band_lines`)
-NB, ACTS, BGRID, BSHAPE, BTABLE, BQADR, BDADR, BNU, BLEN, BFIB, NFIB = range(11)  # BFIB, NFIB: fibres or 0, 0
-BLOCK = 11  # int64 words per band block
+# BFIB, NFIB, FGRID, FSHAPE: the fibre table, its fibre count and its own grid (`BandLines.fibre_grid`), or zeros
+NB, ACTS, BGRID, BSHAPE, BTABLE, BQADR, BDADR, BNU, BLEN, BFIB, NFIB, FGRID, FSHAPE = range(13)
+BLOCK = 13  # int64 words per band block
 # _ROOT layout
 TABLE, M_USER, M_NUSER, D_QPOS, D_QVEL, D_CTRL, D_ALEN, D_AVEL, M_NU, D_QFRC_PASSIVE, M_GEAR = range(11)
 ROOT_WORDS = 11
@@ -200,9 +202,9 @@ def _band_state(m, d, address, i, a):
 
 @numba.njit(inline="always")
 def _fibres(d, address, b, flat, arm, levels, n, c, length, x0, inv_dx, kmax, a, velocity, nivs):
-    """`band_lines.fibre_law` for band b of the block at `address`, at data d's pose."""
+    """`band_lines.fibre_law` for band b of the block at `address`, at data d's pose (the fibres on their own grid)."""
     block = numba.carray(_i64p(address), BLOCK)
-    grid, shape = numba.carray(_f64p(block[BGRID]), 8), numba.carray(_i64p(block[BSHAPE]), 4)
+    grid, shape = numba.carray(_f64p(block[FGRID]), 8), numba.carray(_i64p(block[FSHAPE]), 4)
     fibres = numba.carray(_f64p(block[BFIB]), (block[NB], 1, shape[0], shape[1], shape[2], block[NFIB]))
     qadr = numba.carray(_i64p(block[BQADR]), 3)
     qpos = numba.carray(_f64p(_word(_address(d) + _word(_root() + 8 * D_QPOS))), max(qadr[0], qadr[1], qadr[2]) + 1)
@@ -310,8 +312,13 @@ def _band_block(lines, bands) -> tuple[np.ndarray, tuple]:
     block[ACTS], block[BGRID], block[BSHAPE], block[BTABLE], block[BQADR], block[BDADR], block[BLEN] = (
         x.ctypes.data for x in arrays)
     if lines.fibres is not None:  # line_of_action="band_fibres"
-        arrays += (np.ascontiguousarray(lines.fibres, dtype=np.float64),)
-        block[BFIB], block[NFIB] = arrays[-1].ctypes.data, lines.fibres.shape[-1]
+        fibres = (np.ascontiguousarray(lines.fibres, dtype=np.float64),
+                  np.ascontiguousarray(lines.fibre_grid, dtype=np.float64), np.ascontiguousarray(lines.fibre_shape))
+        if fibres[1].shape != (8,) or fibres[2].shape != (4,) or fibres[0].shape[2:5] != tuple(fibres[2][:3]):
+            raise ValueError("inconsistent fibre arrays for the native callback")
+        arrays += fibres
+        block[BFIB], block[FGRID], block[FSHAPE] = (x.ctypes.data for x in fibres)
+        block[NFIB] = lines.fibres.shape[-1]
     return block, arrays
 
 

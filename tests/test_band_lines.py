@@ -176,6 +176,24 @@ def test_line_of_action_option_errors():
         attach_law(m, TendonLaw.load("fem", groups=full_arm.ACTUATORS, line_of_action="band"))
 
 
+def test_fibre_tables_on_other_grids_are_refused(tmp_path):
+    """The fibres are read on their tables' own grid, so all must share one: a table on every other plane is refused."""
+    import shutil
+
+    from shoulder_bench.band_lines import fibres_path, table_path
+
+    for t in ("ssp", "pec2"):
+        for path in (table_path(t), fibres_path(t)):
+            shutil.copy(path, tmp_path / path.name)
+    assert BandLines.load(("ssp", "pec2"), tmp_path, fibres=True).fibres.shape[:5] == (2, 1, 7, 15, 8)
+    with np.load(fibres_path("pec2")) as z:
+        arrays = {k: z[k] for k in z.files}
+    arrays["plane_deg"], arrays["departure_m"] = arrays["plane_deg"][::2], arrays["departure_m"][::2]
+    np.savez(fibres_path("pec2", tmp_path), **arrays)
+    with pytest.raises(ValueError, match="fibre tables of ssp, pec2 on other grids"):
+        BandLines.load(("ssp", "pec2"), tmp_path, fibres=True)
+
+
 def test_mujoco_applies_the_fibres_force_with_either_callback():
     """line_of_action="band_fibres": each band tendon's force MuJoCo applies is the mean of its fibres' law, each at
     the band's length plus its departure read from the fibre table (`fibre_force`), with the compiled and the Python
@@ -196,6 +214,7 @@ def test_mujoco_applies_the_fibres_force_with_either_callback():
     length[cols] += dl[0]
     speed[cols] += dv[0]
     departures = law.lines.departures(pose_deg)[0]
+    assert law.lines.fibres.shape[2:5] == (7, 15, 8)  # on the fibre tables' own grid, not the nesting one
     for b, t in enumerate(law.lines.tendons):
         one = TendonLaw.load("fem", (t,))
         want = F.fibre_force(one, length[cols[b]], departures[b][None], 0.7, speed[cols[b]])[0]
