@@ -226,8 +226,8 @@ class BandLines:
         was (a trilinear function restricted to a sub-cell is trilinear). Tables over different ranges are refused.
         With the level tables beside them (`levels_path`; all at the same levels): each level's correction is the
         band table's plus that level's arms less its a = 1 arms, read the same way. fibres: also each band's fibre
-        table (`fibres_path`), all on one grid (the tasks', which the tables' grid nests), kept on it: the callbacks
-        read it on its own grid, 55 times smaller than the nesting one, so that fewer of its reads miss the caches."""
+        table (`fibres_path`), all on one grid (the tasks', which the tables' grid nests), kept and read on it (the
+        same values to rounding as on the nesting grid, which holds 55 times as many poses)."""
         tendons = tuple(tendons)
         unknown = [t for t in tendons if t not in BAND_TENDONS]
         if unknown:
