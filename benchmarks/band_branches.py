@@ -53,10 +53,9 @@ def main() -> None:
         ap.error(f"--activation {args.activation:g}: give a level in (0, 1]")
     if args.max_iter < 1:
         ap.error(f"--max-iter {args.max_iter}: give a whole number >= 1")
-    footprint.SETTINGS = dataclasses.replace(footprint.SETTINGS, max_iter=args.max_iter)  # read by every sheet
+    footprint.SETTINGS = dataclasses.replace(footprint.SETTINGS, max_iter=args.max_iter,  # read by every sheet
+                                             iteration_stall=args.iteration_stall)
     a = args.activation
-    if args.iteration_stall:
-        footprint.SETTINGS = dataclasses.replace(footprint.SETTINGS, iteration_stall=True)  # read by every sheet
     poses = grid_poses(args.tendon)
     poses = poses[np.sort(np.random.default_rng(args.seed).choice(len(poses), min(args.n, len(poses)), False))]
     if args.at:

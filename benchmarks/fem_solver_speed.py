@@ -108,25 +108,26 @@ def autograd_pass(kernel: ElementKernel, mem: Membrane, x: np.ndarray, activatio
     return float(np.sum(vol * w)), g, vol[:, None, None] * (h_mat + h_geo)
 
 
-def compiled_or_autograd(label: str, run, difference, repeats: int) -> None:
-    """`run` with the compiled pass and with `autograd_pass` in its place (ElementKernel.evaluate swapped)."""
-    compiled = ElementKernel.evaluate
-    variants = {"autograd": lambda: setattr(ElementKernel, "evaluate", autograd_pass),
-                "compiled": lambda: setattr(ElementKernel, "evaluate", compiled)}
+def swapping(label: str, owner, name: str, values: dict, run, difference, repeats: int) -> None:
+    """`side_by_side` of `values` ({variant: value}) each set as `owner.name` in turn; the attribute restored after."""
+    kept = getattr(owner, name)
+    variants = {k: (lambda v=v: setattr(owner, name, v)) for k, v in values.items()}
     try:
         side_by_side(label, variants, run, difference, repeats)
     finally:
-        ElementKernel.evaluate = compiled
+        setattr(owner, name, kept)
+
+
+def compiled_or_autograd(label: str, run, difference, repeats: int) -> None:
+    """`run` with the compiled pass and with `autograd_pass` in its place (ElementKernel.evaluate swapped)."""
+    swapping(label, ElementKernel, "evaluate", {"autograd": autograd_pass, "compiled": ElementKernel.evaluate}, run,
+             difference, repeats)
 
 
 def iteration_caps(label: str, run, difference, repeats: int, caps) -> None:
     kept = footprint.SETTINGS
-    variants = {f"cap {c}": (lambda c=c: setattr(footprint, "SETTINGS", dataclasses.replace(kept, max_iter=c)))
-                for c in caps}
-    try:
-        side_by_side(f"{label} (in use: {kept.max_iter})", variants, run, difference, repeats)
-    finally:
-        footprint.SETTINGS = kept
+    swapping(f"{label} (in use: {kept.max_iter})", footprint, "SETTINGS",
+             {f"cap {c}": dataclasses.replace(kept, max_iter=c) for c in caps}, run, difference, repeats)
 
 
 class Forgetful(dict):
@@ -137,23 +138,13 @@ class Forgetful(dict):
 
 
 def topology_cache(label: str, run, difference, repeats: int) -> None:
-    kept = solver.TOPOLOGY_CACHE
-    variants = {"uncached": lambda: setattr(solver, "TOPOLOGY_CACHE", Forgetful()),
-                "cached": lambda: setattr(solver, "TOPOLOGY_CACHE", kept)}
-    try:
-        side_by_side(label, variants, run, difference, repeats)
-    finally:
-        solver.TOPOLOGY_CACHE = kept
+    swapping(label, solver, "TOPOLOGY_CACHE", {"uncached": Forgetful(), "cached": solver.TOPOLOGY_CACHE}, run,
+             difference, repeats)
 
 
 def fallback(label: str, run, difference, repeats: int) -> None:
-    kept = bands.FALLBACK
-    variants = {"ramp alone": lambda: setattr(bands, "FALLBACK", ()),
-                "with FALLBACK": lambda: setattr(bands, "FALLBACK", kept)}
-    try:
-        side_by_side(f"{label} (FALLBACK: {', '.join(kept)})", variants, run, difference, repeats)
-    finally:
-        bands.FALLBACK = kept
+    swapping(f"{label} (FALLBACK: {', '.join(bands.FALLBACK)})", bands, "FALLBACK",
+             {"ramp alone": (), "with FALLBACK": bands.FALLBACK}, run, difference, repeats)
 
 
 def arms(a: dict, b: dict) -> str:
